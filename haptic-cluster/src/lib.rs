@@ -1,0 +1,1 @@
+//! haptic-cluster (being written).

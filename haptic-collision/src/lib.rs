@@ -1,0 +1,1 @@
+//! haptic-collision (being written).

@@ -1,0 +1,131 @@
+//! The [`CollisionBackend`] trait: tool geometry against static obstacles.
+
+use crate::contact::ContactSet;
+use crate::error::CoreError;
+use crate::math::Real;
+use crate::state::Pose;
+
+/// What a query asks for.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct QueryParams {
+    /// Distance tolerance `δ` (m): report every pair of features closer than this, including
+    /// pre-contacts that do not yet touch.
+    pub delta_m: Real,
+    /// Accuracy knob: the largest acceptable surface deviation, as a fraction of the tool's
+    /// bounding radius (the paper used 0.025, 0.01 and 0.004). `0` asks for exact contacts. A
+    /// back-end without levels of detail may ignore it.
+    pub error_threshold: Real,
+}
+
+impl QueryParams {
+    /// Validated parameters.
+    ///
+    /// # Errors
+    /// [`CoreError::OutOfRange`] if `delta_m` is not positive and finite or `error_threshold` is
+    /// negative or not finite.
+    pub fn new(delta_m: Real, error_threshold: Real) -> Result<Self, CoreError> {
+        if !(delta_m > 0.0 && delta_m.is_finite()) {
+            return Err(CoreError::OutOfRange {
+                what: "delta_m",
+                value: delta_m,
+                expected: "positive and finite",
+            });
+        }
+        if !(error_threshold >= 0.0 && error_threshold.is_finite()) {
+            return Err(CoreError::OutOfRange {
+                what: "error_threshold",
+                value: error_threshold,
+                expected: "non-negative and finite",
+            });
+        }
+        Ok(Self {
+            delta_m,
+            error_threshold,
+        })
+    }
+}
+
+/// What a query cost, for telemetry and benchmarks.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub struct QueryStats {
+    /// Whether the broad phase found anything within `δ` (if not, nothing else was done).
+    pub broad_phase_hit: bool,
+    /// Bounding-volume (or hierarchy-node) pairs tested.
+    pub node_pairs_tested: u64,
+    /// Primitive (triangle or convex-piece) pairs tested exactly.
+    pub primitive_pairs_tested: u64,
+}
+
+/// Tool geometry against static obstacles (Section VI-A).
+///
+/// The back-end owns the tool's geometry, expressed in the tool's **body frame** (origin at the
+/// centre of mass, the frame whose pose is [`crate::ToolState::pose`]), and the obstacles'
+/// geometry in the world frame. A query places the tool at `tool_pose` and writes into `out`
+/// (after clearing it) every contact within `params.delta_m`, as [`crate::Contact`] defines it:
+/// `p_a` on the tool and `r_a` the same point in the body frame, `p_b` on the obstacle, `n` unit
+/// and pointing out of the tool, `depth_m` positive inside and down to `−δ` outside.
+///
+/// Contract for implementers:
+/// - Reuse `out`'s allocation; allocate as little as possible per query.
+/// - Run a cheap broad phase first, so that a tool far from everything costs almost nothing.
+/// - Never panic on a bad pose: return an error.
+/// - `query` takes `&mut self` so that a back-end can keep temporal coherence (last query's
+///   front) between calls.
+pub trait CollisionBackend {
+    /// The back-end's error type.
+    type Error: std::error::Error + Send + Sync + 'static;
+
+    /// A short identifier, e.g. `"lod"` or `"parry"`.
+    fn name(&self) -> &str;
+
+    /// Radius (m) of the sphere about the tool's body origin that encloses the tool; error
+    /// thresholds are fractions of it.
+    fn tool_bounding_radius_m(&self) -> Real;
+
+    /// Contacts between the tool at `tool_pose` and the obstacles.
+    ///
+    /// # Errors
+    /// Back-end specific; at least a non-finite pose must give an error.
+    fn query(
+        &mut self,
+        tool_pose: &Pose,
+        params: &QueryParams,
+        out: &mut ContactSet,
+    ) -> Result<QueryStats, Self::Error>;
+}
+
+impl<B: CollisionBackend + ?Sized> CollisionBackend for &mut B {
+    type Error = B::Error;
+    fn name(&self) -> &str {
+        (**self).name()
+    }
+    fn tool_bounding_radius_m(&self) -> Real {
+        (**self).tool_bounding_radius_m()
+    }
+    fn query(
+        &mut self,
+        tool_pose: &Pose,
+        params: &QueryParams,
+        out: &mut ContactSet,
+    ) -> Result<QueryStats, Self::Error> {
+        (**self).query(tool_pose, params, out)
+    }
+}
+
+impl<B: CollisionBackend + ?Sized> CollisionBackend for Box<B> {
+    type Error = B::Error;
+    fn name(&self) -> &str {
+        (**self).name()
+    }
+    fn tool_bounding_radius_m(&self) -> Real {
+        (**self).tool_bounding_radius_m()
+    }
+    fn query(
+        &mut self,
+        tool_pose: &Pose,
+        params: &QueryParams,
+        out: &mut ContactSet,
+    ) -> Result<QueryStats, Self::Error> {
+        (**self).query(tool_pose, params, out)
+    }
+}

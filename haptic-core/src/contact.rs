@@ -1,0 +1,239 @@
+//! Contacts between the tool and the obstacles, and a reusable buffer of them.
+
+use crate::error::CoreError;
+use crate::math::{Real, Vec3};
+
+/// Tolerance on `| |n| - 1 |` for a contact normal.
+pub const UNIT_NORMAL_TOL: Real = 1e-6;
+
+/// Marks a contact feature (triangle, node) that is not known.
+pub const NO_FEATURE: u32 = u32::MAX;
+
+/// One contact between the tool (`a`) and an obstacle (`b`) (Section VI-A).
+///
+/// - `p_a`: the point on the tool, world frame (m); `r_a = Rᵀ (p_a − x)` is the same point in the
+///   tool's body frame, so the contact can be re-evaluated at nearby tool states.
+/// - `p_b`: the point on the obstacle, world frame (m).
+/// - `n`: unit normal pointing **out of the tool**, towards the obstacle.
+/// - `depth_m`: positive when `p_a` is inside the obstacle, negative (down to `−δ`) when the two
+///   are apart but closer than the distance tolerance `δ`.
+/// - `feature_a`, `feature_b`: the triangle (or hierarchy node) on each side that produced the
+///   contact, or [`NO_FEATURE`].
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Contact {
+    /// Point on the tool, world frame, m.
+    pub p_a: Vec3,
+    /// Point on the tool, tool body frame, m.
+    pub r_a: Vec3,
+    /// Point on the obstacle, world frame, m.
+    pub p_b: Vec3,
+    /// Unit normal out of the tool.
+    pub n: Vec3,
+    /// Penetration depth, m (negative: separation).
+    pub depth_m: Real,
+    /// Tool feature index, or [`NO_FEATURE`].
+    pub feature_a: u32,
+    /// Obstacle feature index, or [`NO_FEATURE`].
+    pub feature_b: u32,
+}
+
+impl Contact {
+    /// A validated contact without feature indices.
+    ///
+    /// # Errors
+    /// [`CoreError::NonFinite`] for NaN or Inf in any field, [`CoreError::BadNormal`] if `n` is
+    /// not unit within 1e-6.
+    pub fn new(p_a: Vec3, r_a: Vec3, p_b: Vec3, n: Vec3, depth_m: Real) -> Result<Self, CoreError> {
+        let c = Self {
+            p_a,
+            r_a,
+            p_b,
+            n,
+            depth_m,
+            feature_a: NO_FEATURE,
+            feature_b: NO_FEATURE,
+        };
+        c.validate()?;
+        Ok(c)
+    }
+
+    /// The same contact tagged with the features that produced it.
+    pub fn with_features(mut self, feature_a: u32, feature_b: u32) -> Self {
+        self.feature_a = feature_a;
+        self.feature_b = feature_b;
+        self
+    }
+
+    /// Checks finiteness and the unit normal.
+    ///
+    /// # Errors
+    /// As [`Contact::new`].
+    pub fn validate(&self) -> Result<(), CoreError> {
+        let finite = |v: &Vec3| v.iter().all(|c| c.is_finite());
+        if !finite(&self.p_a) {
+            return Err(CoreError::NonFinite { what: "contact p_a" });
+        }
+        if !finite(&self.r_a) {
+            return Err(CoreError::NonFinite { what: "contact r_a" });
+        }
+        if !finite(&self.p_b) {
+            return Err(CoreError::NonFinite { what: "contact p_b" });
+        }
+        if !finite(&self.n) {
+            return Err(CoreError::NonFinite { what: "contact normal" });
+        }
+        if !self.depth_m.is_finite() {
+            return Err(CoreError::NonFinite { what: "contact depth" });
+        }
+        let norm = self.n.norm();
+        if (norm - 1.0).abs() > UNIT_NORMAL_TOL {
+            return Err(CoreError::BadNormal { norm });
+        }
+        Ok(())
+    }
+}
+
+/// A reusable buffer of contacts, filled by a [`crate::CollisionBackend`].
+///
+/// `clear` keeps the allocation, so after warm-up a query that returns no more contacts than
+/// before allocates nothing.
+#[derive(Debug, Clone, Default)]
+pub struct ContactSet {
+    contacts: Vec<Contact>,
+}
+
+impl ContactSet {
+    /// An empty set.
+    pub fn new() -> Self {
+        Self::default()
+    }
+
+    /// An empty set with room for `capacity` contacts.
+    pub fn with_capacity(capacity: usize) -> Self {
+        Self {
+            contacts: Vec::with_capacity(capacity),
+        }
+    }
+
+    /// Removes every contact, keeping the allocation.
+    #[inline]
+    pub fn clear(&mut self) {
+        self.contacts.clear();
+    }
+
+    /// Appends a contact.
+    #[inline]
+    pub fn push(&mut self, contact: Contact) {
+        self.contacts.push(contact);
+    }
+
+    /// The contacts.
+    #[inline]
+    pub fn as_slice(&self) -> &[Contact] {
+        &self.contacts
+    }
+
+    /// The contacts, mutably.
+    #[inline]
+    pub fn as_mut_slice(&mut self) -> &mut [Contact] {
+        &mut self.contacts
+    }
+
+    /// Number of contacts.
+    #[inline]
+    pub fn len(&self) -> usize {
+        self.contacts.len()
+    }
+
+    /// Whether there is no contact.
+    #[inline]
+    pub fn is_empty(&self) -> bool {
+        self.contacts.is_empty()
+    }
+
+    /// Allocated room.
+    pub fn capacity(&self) -> usize {
+        self.contacts.capacity()
+    }
+
+    /// Iterates over the contacts.
+    pub fn iter(&self) -> std::slice::Iter<'_, Contact> {
+        self.contacts.iter()
+    }
+
+    /// Largest depth (m), or `None` when empty.
+    pub fn max_depth_m(&self) -> Option<Real> {
+        self.contacts.iter().map(|c| c.depth_m).reduce(Real::max)
+    }
+}
+
+impl<'a> IntoIterator for &'a ContactSet {
+    type Item = &'a Contact;
+    type IntoIter = std::slice::Iter<'a, Contact>;
+    fn into_iter(self) -> Self::IntoIter {
+        self.contacts.iter()
+    }
+}
+
+impl Extend<Contact> for ContactSet {
+    fn extend<T: IntoIterator<Item = Contact>>(&mut self, iter: T) {
+        self.contacts.extend(iter);
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn ok() -> Contact {
+        Contact::new(Vec3::zeros(), Vec3::zeros(), Vec3::zeros(), Vec3::z(), 1e-4).unwrap()
+    }
+
+    #[test]
+    fn contact_rejects_bad_input() {
+        let z = Vec3::zeros();
+        let nan = Vec3::new(Real::NAN, 0.0, 0.0);
+        assert!(matches!(
+            Contact::new(nan, z, z, Vec3::z(), 0.0),
+            Err(CoreError::NonFinite { what: "contact p_a" })
+        ));
+        assert!(matches!(
+            Contact::new(z, nan, z, Vec3::z(), 0.0),
+            Err(CoreError::NonFinite { what: "contact r_a" })
+        ));
+        assert!(matches!(
+            Contact::new(z, z, nan, Vec3::z(), 0.0),
+            Err(CoreError::NonFinite { what: "contact p_b" })
+        ));
+        assert!(matches!(
+            Contact::new(z, z, z, nan, 0.0),
+            Err(CoreError::NonFinite { what: "contact normal" })
+        ));
+        assert!(matches!(
+            Contact::new(z, z, z, Vec3::z(), Real::INFINITY),
+            Err(CoreError::NonFinite { what: "contact depth" })
+        ));
+        assert!(matches!(
+            Contact::new(z, z, z, z, 0.0),
+            Err(CoreError::BadNormal { .. })
+        ));
+        assert!(matches!(
+            Contact::new(z, z, z, Vec3::new(0.0, 0.0, 2.0), 0.0),
+            Err(CoreError::BadNormal { .. })
+        ));
+    }
+
+    #[test]
+    fn contact_set_reuses_its_allocation() {
+        let mut set = ContactSet::with_capacity(4);
+        for _ in 0..4 {
+            set.push(ok());
+        }
+        let cap = set.capacity();
+        set.clear();
+        assert!(set.is_empty());
+        set.extend(std::iter::repeat_n(ok(), 4));
+        assert_eq!(set.capacity(), cap);
+        assert_eq!(set.max_depth_m(), Some(1e-4));
+    }
+}

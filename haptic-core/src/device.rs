@@ -1,0 +1,246 @@
+//! The [`Device`] trait: a haptic (or input-only) device.
+
+use crate::error::{CoreError, DeviceError};
+use crate::math::{Real, Vec3};
+use crate::state::{DeviceState, Wrench};
+
+/// What a device can do: force and torque limits, workspace, nominal rate.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct DeviceLimits {
+    /// Largest force magnitude the device can render (N); 0 for an input-only device.
+    pub max_force_n: Real,
+    /// Largest torque magnitude the device can render (N m); 0 for none.
+    pub max_torque_nm: Real,
+    /// Lower corner of the reachable workspace (m, world frame).
+    pub workspace_min_m: Vec3,
+    /// Upper corner of the reachable workspace (m, world frame).
+    pub workspace_max_m: Vec3,
+    /// The rate the device is meant to be served at (Hz).
+    pub nominal_rate_hz: Real,
+}
+
+impl DeviceLimits {
+    /// Validated limits.
+    ///
+    /// # Errors
+    /// [`CoreError::NonFinite`] or [`CoreError::OutOfRange`] for negative limits, a
+    /// non-positive rate or an empty workspace.
+    pub fn new(
+        max_force_n: Real,
+        max_torque_nm: Real,
+        workspace_min_m: Vec3,
+        workspace_max_m: Vec3,
+        nominal_rate_hz: Real,
+    ) -> Result<Self, CoreError> {
+        for (what, v) in [
+            ("max_force_n", max_force_n),
+            ("max_torque_nm", max_torque_nm),
+            ("nominal_rate_hz", nominal_rate_hz),
+        ] {
+            if !v.is_finite() {
+                return Err(CoreError::NonFinite { what });
+            }
+        }
+        if workspace_min_m.iter().chain(workspace_max_m.iter()).any(|v| !v.is_finite()) {
+            return Err(CoreError::NonFinite { what: "workspace" });
+        }
+        if max_force_n < 0.0 {
+            return Err(CoreError::OutOfRange {
+                what: "max_force_n",
+                value: max_force_n,
+                expected: ">= 0",
+            });
+        }
+        if max_torque_nm < 0.0 {
+            return Err(CoreError::OutOfRange {
+                what: "max_torque_nm",
+                value: max_torque_nm,
+                expected: ">= 0",
+            });
+        }
+        if nominal_rate_hz <= 0.0 {
+            return Err(CoreError::OutOfRange {
+                what: "nominal_rate_hz",
+                value: nominal_rate_hz,
+                expected: "> 0",
+            });
+        }
+        if (0..3).any(|i| workspace_min_m[i] >= workspace_max_m[i]) {
+            return Err(CoreError::OutOfRange {
+                what: "workspace",
+                value: (workspace_max_m - workspace_min_m).min(),
+                expected: "min < max on every axis",
+            });
+        }
+        Ok(Self {
+            max_force_n,
+            max_torque_nm,
+            workspace_min_m,
+            workspace_max_m,
+            nominal_rate_hz,
+        })
+    }
+
+    /// Clamps a wrench to the limits, keeping directions. Returns the clamped wrench and whether
+    /// anything was clamped. A non-finite wrench becomes zero (and counts as clamped).
+    pub fn saturate(&self, w: &Wrench) -> (Wrench, bool) {
+        if !w.is_finite() {
+            return (Wrench::zero(), true);
+        }
+        let mut out = *w;
+        let mut clamped = false;
+        let f = w.force.norm();
+        if f > self.max_force_n {
+            out.force = if f > 0.0 { w.force * (self.max_force_n / f) } else { Vec3::zeros() };
+            clamped = true;
+        }
+        let t = w.torque.norm();
+        if t > self.max_torque_nm {
+            out.torque = if t > 0.0 { w.torque * (self.max_torque_nm / t) } else { Vec3::zeros() };
+            clamped = true;
+        }
+        (out, clamped)
+    }
+
+    /// Whether a wrench is finite and within the limits (with a relative slack of 1e-12).
+    pub fn admits(&self, w: &Wrench) -> bool {
+        w.is_finite()
+            && w.force.norm() <= self.max_force_n * (1.0 + 1e-12)
+            && w.torque.norm() <= self.max_torque_nm * (1.0 + 1e-12)
+    }
+}
+
+/// A haptic device, or an input-only device that reports zero force capability.
+///
+/// The runtime calls [`Device::read`] once per haptic period, then [`Device::command`] with the
+/// wrench to render at the handle (force in N, torque in N m, world frame). `now_s` is the
+/// runtime's clock (wall time in real-time mode, simulated time in deterministic mode), so a
+/// simulated device can advance to it and a real one can time-stamp with it.
+///
+/// Contract for implementers:
+/// - Every operation that touches hardware is fallible; errors say their
+///   [`crate::DeviceErrorKind`] (disconnected, timeout, …) through [`DeviceError::kind`].
+/// - `command` must never render more than [`Device::limits`]; callers saturate before sending,
+///   and a device should clamp too.
+/// - `command_zero` must work whenever the device is reachable: it is the safe state.
+/// - `read` and `command` are called from the haptic thread: no allocation, no blocking I/O
+///   beyond the device transaction itself.
+/// - Configuration (opening, calibration) stays out of the trait, in constructors.
+pub trait Device {
+    /// The device's error type.
+    type Error: DeviceError;
+
+    /// A human-readable name.
+    fn name(&self) -> &str;
+
+    /// Limits of the device.
+    fn limits(&self) -> DeviceLimits;
+
+    /// Reads the handle's state at time `now_s` (s).
+    ///
+    /// # Errors
+    /// Device specific; a NaN pose must be an error of kind `InvalidData`, not a value.
+    fn read(&mut self, now_s: Real) -> Result<DeviceState, Self::Error>;
+
+    /// Commands a wrench at the handle.
+    ///
+    /// # Errors
+    /// Device specific.
+    fn command(&mut self, wrench: &Wrench) -> Result<(), Self::Error>;
+
+    /// Commands zero force and torque: the safe state.
+    ///
+    /// # Errors
+    /// As [`Device::command`].
+    fn command_zero(&mut self) -> Result<(), Self::Error> {
+        self.command(&Wrench::zero())
+    }
+}
+
+impl<D: Device + ?Sized> Device for &mut D {
+    type Error = D::Error;
+    fn name(&self) -> &str {
+        (**self).name()
+    }
+    fn limits(&self) -> DeviceLimits {
+        (**self).limits()
+    }
+    fn read(&mut self, now_s: Real) -> Result<DeviceState, Self::Error> {
+        (**self).read(now_s)
+    }
+    fn command(&mut self, wrench: &Wrench) -> Result<(), Self::Error> {
+        (**self).command(wrench)
+    }
+    fn command_zero(&mut self) -> Result<(), Self::Error> {
+        (**self).command_zero()
+    }
+}
+
+impl<D: Device + ?Sized> Device for Box<D> {
+    type Error = D::Error;
+    fn name(&self) -> &str {
+        (**self).name()
+    }
+    fn limits(&self) -> DeviceLimits {
+        (**self).limits()
+    }
+    fn read(&mut self, now_s: Real) -> Result<DeviceState, Self::Error> {
+        (**self).read(now_s)
+    }
+    fn command(&mut self, wrench: &Wrench) -> Result<(), Self::Error> {
+        (**self).command(wrench)
+    }
+    fn command_zero(&mut self) -> Result<(), Self::Error> {
+        (**self).command_zero()
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn limits() -> DeviceLimits {
+        DeviceLimits::new(5.0, 0.5, Vec3::repeat(-0.1), Vec3::repeat(0.1), 1000.0).unwrap()
+    }
+
+    #[test]
+    fn limits_reject_bad_input() {
+        let lo = Vec3::repeat(-0.1);
+        let hi = Vec3::repeat(0.1);
+        assert!(matches!(
+            DeviceLimits::new(-1.0, 0.5, lo, hi, 1000.0),
+            Err(CoreError::OutOfRange { what: "max_force_n", .. })
+        ));
+        assert!(matches!(
+            DeviceLimits::new(1.0, -0.5, lo, hi, 1000.0),
+            Err(CoreError::OutOfRange { what: "max_torque_nm", .. })
+        ));
+        assert!(matches!(
+            DeviceLimits::new(1.0, 0.5, lo, hi, 0.0),
+            Err(CoreError::OutOfRange { what: "nominal_rate_hz", .. })
+        ));
+        assert!(matches!(
+            DeviceLimits::new(Real::NAN, 0.5, lo, hi, 1000.0),
+            Err(CoreError::NonFinite { what: "max_force_n" })
+        ));
+        assert!(matches!(
+            DeviceLimits::new(1.0, 0.5, hi, lo, 1000.0),
+            Err(CoreError::OutOfRange { what: "workspace", .. })
+        ));
+        assert!(matches!(
+            DeviceLimits::new(1.0, 0.5, lo, Vec3::new(Real::NAN, 0.0, 0.0), 1000.0),
+            Err(CoreError::NonFinite { what: "workspace" })
+        ));
+    }
+
+    #[test]
+    fn saturate_clamps_and_zeroes_nan() {
+        let l = limits();
+        let (w, c) = l.saturate(&Wrench::new(Vec3::new(10.0, 0.0, 0.0), Vec3::zeros()));
+        assert!(c && (w.force.norm() - 5.0).abs() < 1e-12 && l.admits(&w));
+        let (w, c) = l.saturate(&Wrench::new(Vec3::new(1.0, 0.0, 0.0), Vec3::new(0.0, 0.0, 0.1)));
+        assert!(!c && w.force.x == 1.0);
+        let (w, c) = l.saturate(&Wrench::new(Vec3::new(Real::NAN, 0.0, 0.0), Vec3::zeros()));
+        assert!(c && w == Wrench::zero());
+    }
+}

@@ -1,0 +1,1 @@
+//! haptic-device (being written).

@@ -1,0 +1,1 @@
+//! haptic-dynamics (being written).

@@ -1,0 +1,1 @@
+//! haptic-runtime (being written).

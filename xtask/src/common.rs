@@ -1,0 +1,23 @@
+//! Paths and output helpers shared by the xtask commands.
+
+use std::path::{Path, PathBuf};
+
+/// The workspace root (the directory holding the top-level `Cargo.toml`).
+pub fn repo_root() -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR"))
+        .parent()
+        .map(Path::to_path_buf)
+        .unwrap_or_else(|| PathBuf::from("."))
+}
+
+/// The shared meshes, `../shared/meshes` relative to the repository root.
+pub fn meshes_dir() -> PathBuf {
+    repo_root().join("..").join("shared").join("meshes")
+}
+
+/// Writes `value` as pretty JSON to `path`, and says where.
+pub fn write_json(path: &Path, value: &serde_json::Value) -> anyhow::Result<()> {
+    std::fs::write(path, serde_json::to_string_pretty(value)?)?;
+    println!("wrote {}", path.display());
+    Ok(())
+}

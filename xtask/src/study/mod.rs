@@ -1,0 +1,34 @@
+//! `cargo xtask study …`: the paper's experiments.
+
+mod cup;
+mod free_space;
+mod jaws;
+
+use crate::OutArgs;
+
+/// Which study.
+#[derive(clap::Subcommand, Debug)]
+pub enum Study {
+    /// Fig. 3: integrators against tool mass in free space.
+    FreeSpace(OutArgs),
+    /// Fig. 4: the spoon in the cup.
+    Cup(OutArgs),
+    /// Fig. 6: the jaws.
+    Jaws(OutArgs),
+    /// Every study, and a report.
+    All(OutArgs),
+}
+
+/// Runs a study.
+pub fn run(which: Study) -> anyhow::Result<()> {
+    match which {
+        Study::FreeSpace(a) => free_space::run(&a),
+        Study::Cup(a) => cup::run(&a),
+        Study::Jaws(a) => jaws::run(&a),
+        Study::All(a) => {
+            free_space::run(&a)?;
+            cup::run(&a)?;
+            jaws::run(&a)
+        }
+    }
+}
