@@ -1,1 +1,7 @@
-//! haptic-collision (being written).
+//! # haptic-collision
+//!
+//! Mesh loading and collision back-ends (being written).
+
+pub mod mesh;
+
+pub use mesh::{DegeneratePolicy, MeshError, TriMesh};
