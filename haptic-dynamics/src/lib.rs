@@ -1,1 +1,6 @@
-//! haptic-dynamics (being written).
+//! # haptic-dynamics (being written)
+//!
+//! The rigid-body tool, the virtual coupling with device saturation, the penalty contact model and
+//! the integrators.
+
+pub mod penalty;

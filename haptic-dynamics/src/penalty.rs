@@ -1,0 +1,1 @@
+//! The penalty contact model (eqs. 33–41): being written.
