@@ -1,0 +1,383 @@
+//! The four integrators of the 13-state tool, behind [`haptic_core::Integrator`]: forward Euler,
+//! classic RK4, semi-implicit backward Euler (the paper's method, eqs. 4–5) and full-Newton
+//! backward Euler (its accuracy reference).
+//!
+//! All of them validate the step and the state before evaluating anything, check every wrench
+//! (and Jacobian) the force model returns, renormalise the quaternion of the new state, return
+//! an [`IntegrationError`] instead of a non-finite state, and allocate nothing: every matrix is
+//! fixed-size on the stack. The explicit ones never ask for a Jacobian.
+//!
+//! Time: explicit methods evaluate the force model at their stage times (`t`, `t + h/2`, `t + h`);
+//! both backward Eulers evaluate it at the end of the step, `t + h`, as `y₁ = y₀ + h f(t + h, y₁)`
+//! requires. The haptic loop holds the device reading constant over a step, so there the time
+//! argument does not matter.
+
+use std::fmt;
+use std::str::FromStr;
+
+use haptic_core::math::all_finite;
+use haptic_core::{
+    ForceModel, IntegrationError, Integrator, Kinematics, Real, RigidBody, StateVector,
+    SystemJacobian, ToolState, WrenchJacobian,
+};
+
+use crate::eom::{state_derivative, system_jacobian};
+use crate::error::DynamicsError;
+
+/// Pivots of the LU factorisation smaller than this fraction of the largest one mean that
+/// `I - h J` is singular to working precision.
+pub const SINGULAR_PIVOT_RATIO: Real = 1e-13;
+
+fn check_inputs(state: &ToolState, dt_s: Real) -> Result<StateVector, IntegrationError> {
+    if !(dt_s > 0.0 && dt_s.is_finite()) {
+        return Err(IntegrationError::InvalidStep { dt_s });
+    }
+    let y = state.to_vector();
+    if !all_finite(&y) {
+        return Err(IntegrationError::NonFiniteInput { what: "tool state" });
+    }
+    Ok(y)
+}
+
+/// `f(t, y)` through the force model, with its wrench checked.
+fn derivative(
+    body: &RigidBody,
+    forces: &mut dyn ForceModel,
+    t_s: Real,
+    y: &StateVector,
+) -> Result<StateVector, IntegrationError> {
+    let kin = Kinematics::new(body, y);
+    let w = forces.wrench(body, t_s, y, &kin);
+    if !w.is_finite() {
+        return Err(IntegrationError::NonFiniteForce { what: "wrench" });
+    }
+    Ok(state_derivative(body, y, &kin, &w))
+}
+
+/// `f(t, y)` and `J = ∂f/∂y` (eqs. 6–12 plus the force model's 6×13 Jacobian), checked.
+fn derivative_and_jacobian(
+    body: &RigidBody,
+    forces: &mut dyn ForceModel,
+    t_s: Real,
+    y: &StateVector,
+    jac: &mut SystemJacobian,
+) -> Result<StateVector, IntegrationError> {
+    let kin = Kinematics::new(body, y);
+    let mut wj = WrenchJacobian::zeros();
+    let w = forces.wrench_and_jacobian(body, t_s, y, &kin, &mut wj);
+    if !w.is_finite() {
+        return Err(IntegrationError::NonFiniteForce { what: "wrench" });
+    }
+    if !all_finite(&wj) {
+        return Err(IntegrationError::NonFiniteForce { what: "jacobian" });
+    }
+    system_jacobian(body, y, &kin, &wj, jac);
+    Ok(state_derivative(body, y, &kin, &w))
+}
+
+/// Solves `(I - h J) Δ = rhs` by LU with partial pivoting (13×13, on the stack).
+fn solve_shifted(
+    jac: &SystemJacobian,
+    dt_s: Real,
+    rhs: &StateVector,
+) -> Result<StateVector, IntegrationError> {
+    let a = SystemJacobian::identity() - jac * dt_s;
+    let lu = a.lu();
+    let u = lu.u();
+    let (mut lo, mut hi) = (Real::INFINITY, 0.0_f64);
+    for i in 0..13 {
+        let p = u[(i, i)].abs();
+        lo = lo.min(p);
+        hi = hi.max(p);
+    }
+    if !(hi.is_finite() && lo > SINGULAR_PIVOT_RATIO * hi) {
+        return Err(IntegrationError::SingularSystem);
+    }
+    let x = lu.solve(rhs).ok_or(IntegrationError::SingularSystem)?;
+    if !all_finite(&x) {
+        // The pivots were fine, so the overflow comes from the size of the right-hand side.
+        return Err(IntegrationError::NonFiniteState);
+    }
+    Ok(x)
+}
+
+fn finish(y: &StateVector) -> Result<ToolState, IntegrationError> {
+    if !all_finite(y) {
+        return Err(IntegrationError::NonFiniteState);
+    }
+    ToolState::from_vector_normalized(y).map_err(|_| IntegrationError::NonFiniteState)
+}
+
+/// Explicit (forward) Euler: `y₁ = y₀ + h f(t, y₀)`. First order; one force evaluation.
+#[derive(Debug, Clone, Copy, Default)]
+pub struct ForwardEuler;
+
+impl Integrator for ForwardEuler {
+    fn name(&self) -> &'static str {
+        IntegratorKind::ForwardEuler.name()
+    }
+
+    fn uses_jacobian(&self) -> bool {
+        false
+    }
+
+    fn step(
+        &mut self,
+        body: &RigidBody,
+        state: &ToolState,
+        t_s: Real,
+        dt_s: Real,
+        forces: &mut dyn ForceModel,
+    ) -> Result<ToolState, IntegrationError> {
+        let y0 = check_inputs(state, dt_s)?;
+        let f0 = derivative(body, forces, t_s, &y0)?;
+        finish(&(y0 + f0 * dt_s))
+    }
+}
+
+/// Classic fourth-order Runge–Kutta. Four force evaluations, no Jacobian.
+#[derive(Debug, Clone, Copy, Default)]
+pub struct Rk4;
+
+impl Integrator for Rk4 {
+    fn name(&self) -> &'static str {
+        IntegratorKind::Rk4.name()
+    }
+
+    fn uses_jacobian(&self) -> bool {
+        false
+    }
+
+    fn step(
+        &mut self,
+        body: &RigidBody,
+        state: &ToolState,
+        t_s: Real,
+        dt_s: Real,
+        forces: &mut dyn ForceModel,
+    ) -> Result<ToolState, IntegrationError> {
+        let y0 = check_inputs(state, dt_s)?;
+        let h = dt_s;
+        let k1 = derivative(body, forces, t_s, &y0)?;
+        let k2 = derivative(body, forces, t_s + 0.5 * h, &(y0 + k1 * (0.5 * h)))?;
+        let k3 = derivative(body, forces, t_s + 0.5 * h, &(y0 + k2 * (0.5 * h)))?;
+        let k4 = derivative(body, forces, t_s + h, &(y0 + k3 * h))?;
+        finish(&(y0 + (k1 + (k2 + k3) * 2.0 + k4) * (h / 6.0)))
+    }
+}
+
+/// Semi-implicit backward Euler (eqs. 4–5): one linearized solve
+/// `(I - h J) Δy = h f(y₀)`, `J = ∂f/∂y` at `y₀`, `y₁ = y₀ + Δy`. First order, unconditionally
+/// stable for the linear coupling, one force-and-Jacobian evaluation and one 13×13 LU per step.
+#[derive(Debug, Clone, Copy, Default)]
+pub struct BackwardEuler;
+
+impl Integrator for BackwardEuler {
+    fn name(&self) -> &'static str {
+        IntegratorKind::BackwardEuler.name()
+    }
+
+    fn uses_jacobian(&self) -> bool {
+        true
+    }
+
+    fn step(
+        &mut self,
+        body: &RigidBody,
+        state: &ToolState,
+        t_s: Real,
+        dt_s: Real,
+        forces: &mut dyn ForceModel,
+    ) -> Result<ToolState, IntegrationError> {
+        let y0 = check_inputs(state, dt_s)?;
+        let mut jac = SystemJacobian::zeros();
+        let f0 = derivative_and_jacobian(body, forces, t_s + dt_s, &y0, &mut jac)?;
+        let dy = solve_shifted(&jac, dt_s, &(f0 * dt_s))?; // eq. 5
+        finish(&(y0 + dy))
+    }
+}
+
+/// Backward Euler solved by full Newton iteration: `y₁ = y₀ + h f(t + h, y₁)` to a tolerance.
+/// The accuracy reference for [`BackwardEuler`] (its first iterate is the semi-implicit step).
+///
+/// Converged when, for each of the four blocks `x, q, P, L`, the last Newton update is at most
+/// `tolerance` times the block's size (max norm of `y₀` and the iterate).
+#[derive(Debug, Clone, Copy)]
+pub struct NewtonBackwardEuler {
+    /// Relative tolerance on the Newton update, per block.
+    pub tolerance: Real,
+    /// Largest number of Newton iterations before [`IntegrationError::NotConverged`].
+    pub max_iterations: usize,
+}
+
+impl Default for NewtonBackwardEuler {
+    fn default() -> Self {
+        Self {
+            tolerance: 1e-10,
+            max_iterations: 20,
+        }
+    }
+}
+
+impl NewtonBackwardEuler {
+    /// A validated configuration.
+    ///
+    /// # Errors
+    /// [`DynamicsError::OutOfRange`] unless `tolerance > 0` (finite) and `max_iterations >= 1`.
+    pub fn new(tolerance: Real, max_iterations: usize) -> Result<Self, DynamicsError> {
+        if !(tolerance > 0.0 && tolerance.is_finite()) {
+            return Err(DynamicsError::OutOfRange {
+                what: "tolerance",
+                value: tolerance,
+                expected: "positive and finite",
+            });
+        }
+        if max_iterations == 0 {
+            return Err(DynamicsError::OutOfRange {
+                what: "max_iterations",
+                value: 0.0,
+                expected: ">= 1",
+            });
+        }
+        Ok(Self {
+            tolerance,
+            max_iterations,
+        })
+    }
+}
+
+/// The largest block-relative size of `delta` (blocks x, q, P, L) against `a` and `b`.
+fn block_relative(delta: &StateVector, a: &StateVector, b: &StateVector) -> Real {
+    const BLOCKS: [(usize, usize); 4] = [(0, 3), (3, 7), (7, 10), (10, 13)];
+    let mut worst = 0.0_f64;
+    for (lo, hi) in BLOCKS {
+        let (mut d, mut s) = (0.0_f64, 0.0_f64);
+        for i in lo..hi {
+            d = d.max(delta[i].abs());
+            s = s.max(a[i].abs()).max(b[i].abs());
+        }
+        if d > 0.0 {
+            worst = worst.max(d / s.max(Real::MIN_POSITIVE));
+        }
+    }
+    worst
+}
+
+impl Integrator for NewtonBackwardEuler {
+    fn name(&self) -> &'static str {
+        IntegratorKind::NewtonBackwardEuler.name()
+    }
+
+    fn uses_jacobian(&self) -> bool {
+        true
+    }
+
+    fn step(
+        &mut self,
+        body: &RigidBody,
+        state: &ToolState,
+        t_s: Real,
+        dt_s: Real,
+        forces: &mut dyn ForceModel,
+    ) -> Result<ToolState, IntegrationError> {
+        let y0 = check_inputs(state, dt_s)?;
+        let t1 = t_s + dt_s;
+        let mut y = y0;
+        let mut jac = SystemJacobian::zeros();
+        let mut residual = Real::INFINITY;
+        for _ in 0..self.max_iterations {
+            let f = derivative_and_jacobian(body, forces, t1, &y, &mut jac)?;
+            let g = y - y0 - f * dt_s; // residual of y = y0 + h f(y)
+            let delta = solve_shifted(&jac, dt_s, &(-g))?;
+            y += delta;
+            if !all_finite(&y) {
+                return Err(IntegrationError::NonFiniteState);
+            }
+            residual = block_relative(&delta, &y0, &y);
+            if residual <= self.tolerance {
+                return finish(&y);
+            }
+        }
+        Err(IntegrationError::NotConverged {
+            iterations: self.max_iterations,
+            residual,
+        })
+    }
+}
+
+/// The integrators by name, for configuration files, command lines and sweeps.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
+pub enum IntegratorKind {
+    /// [`BackwardEuler`] (semi-implicit, the paper's method).
+    BackwardEuler,
+    /// [`NewtonBackwardEuler`] with its default tolerance.
+    NewtonBackwardEuler,
+    /// [`Rk4`].
+    Rk4,
+    /// [`ForwardEuler`].
+    ForwardEuler,
+}
+
+impl IntegratorKind {
+    /// Every kind, in the order the studies report them.
+    pub const ALL: [IntegratorKind; 4] = [
+        IntegratorKind::BackwardEuler,
+        IntegratorKind::NewtonBackwardEuler,
+        IntegratorKind::Rk4,
+        IntegratorKind::ForwardEuler,
+    ];
+
+    /// The snake_case name used in JSON output: `backward_euler`, `newton_backward_euler`,
+    /// `rk4`, `forward_euler`.
+    pub fn name(self) -> &'static str {
+        match self {
+            IntegratorKind::BackwardEuler => "backward_euler",
+            IntegratorKind::NewtonBackwardEuler => "newton_backward_euler",
+            IntegratorKind::Rk4 => "rk4",
+            IntegratorKind::ForwardEuler => "forward_euler",
+        }
+    }
+
+    /// Whether the integrator needs the force model's Jacobian.
+    pub fn is_implicit(self) -> bool {
+        matches!(
+            self,
+            IntegratorKind::BackwardEuler | IntegratorKind::NewtonBackwardEuler
+        )
+    }
+
+    /// A boxed integrator of this kind with default settings.
+    pub fn boxed(self) -> Box<dyn Integrator + Send> {
+        match self {
+            IntegratorKind::BackwardEuler => Box::new(BackwardEuler),
+            IntegratorKind::NewtonBackwardEuler => Box::new(NewtonBackwardEuler::default()),
+            IntegratorKind::Rk4 => Box::new(Rk4),
+            IntegratorKind::ForwardEuler => Box::new(ForwardEuler),
+        }
+    }
+}
+
+impl fmt::Display for IntegratorKind {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.write_str(self.name())
+    }
+}
+
+impl FromStr for IntegratorKind {
+    type Err = DynamicsError;
+
+    /// Accepts `be`/`backward_euler`, `newton-be`/`newton_backward_euler`, `rk4`,
+    /// `fe`/`forward_euler`; case-insensitive, `-` and `_` interchangeable.
+    fn from_str(s: &str) -> Result<Self, Self::Err> {
+        let norm = s.trim().to_ascii_lowercase().replace('-', "_");
+        match norm.as_str() {
+            "be" | "backward_euler" | "semi_implicit" => Ok(IntegratorKind::BackwardEuler),
+            "newton_be" | "newton_backward_euler" | "newton" => {
+                Ok(IntegratorKind::NewtonBackwardEuler)
+            }
+            "rk4" | "runge_kutta" => Ok(IntegratorKind::Rk4),
+            "fe" | "forward_euler" | "euler" => Ok(IntegratorKind::ForwardEuler),
+            _ => Err(DynamicsError::UnknownIntegrator { name: s.to_owned() }),
+        }
+    }
+}
