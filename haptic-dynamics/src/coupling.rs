@@ -625,6 +625,17 @@ impl VirtualCoupling {
         }
     }
 
+    /// The tool state at rest at which the coupling deviation is zero: `q = q_h ⊗ q_c⁻¹`,
+    /// `x = x_h - R(q) r_c`, no momentum. For re-placing the tool at the handle (after a fault,
+    /// or to start a scene).
+    pub fn tool_at_handle(&self) -> ToolState {
+        let q = self.device.pose.orientation * self.grasp.q_c.inverse();
+        ToolState::at_rest(&Pose {
+            position: self.device.pose.position - q * self.grasp.r_c,
+            orientation: q,
+        })
+    }
+
     /// The spring stretch `e = x_h - x - R r_c` (m) and rotation vector `θ u` (rad) at `y`.
     pub fn stretch(&self, y: &StateVector, kin: &Kinematics) -> (Vec3, Vec3) {
         let c = self.parts(y, kin);
@@ -914,6 +925,10 @@ mod tests {
         assert!((react.torque + rot).norm() < 1e-15);
         let dev = c.deviation(&tool);
         assert!((dev.translation_m - 0.01).abs() < 1e-15 && (dev.angle_rad - 0.1).abs() < 1e-12);
+        let placed = c.tool_at_handle();
+        let dev = c.deviation(&placed);
+        assert!(dev.translation_m < 1e-15 && dev.angle_rad < 1e-7, "{dev:?}");
+        assert!(c.wrench_on_tool(&body, &placed).force.norm() < 1e-12);
     }
 
     #[test]
