@@ -1,0 +1,465 @@
+//! Exact geometric primitives shared by the multiresolution back-end ([`crate::lod`]) and the
+//! brute-force reference ([`crate::reference`]).
+//!
+//! Everything works on planar convex polygons given as counter-clockwise vertex lists (seen from
+//! the side their unit normal points to); a triangle is a polygon of three vertices. The
+//! triangle–triangle query ([`triangle_pair`]) is the exact leaf test of the hierarchy, and the
+//! same routine on polygons of up to [`crate::lod::MAX_PIECE_VERTICES`] vertices gives the contacts
+//! of the simplified convex pieces.
+//!
+//! Depth of an intersecting pair (our definition): the penetration depth of the two convex sets,
+//! i.e. the length of the shortest translation that separates them, found by the separating-axis
+//! theorem over every candidate axis (both normals, all edge–edge cross products, and each normal
+//! crossed with the other polygon's edges, which covers coplanar pairs). The minimum over a
+//! superset of the facet normals of the Minkowski difference is exactly the penetration depth.
+
+use haptic_core::{Real, Vec3};
+
+/// Closest point to `p` on the segment `[a, b]`, and its parameter in `[0, 1]`.
+#[inline]
+pub fn closest_point_on_segment(p: &Vec3, a: &Vec3, b: &Vec3) -> (Vec3, Real) {
+    let ab = b - a;
+    let len2 = ab.norm_squared();
+    if len2 <= 0.0 {
+        return (*a, 0.0);
+    }
+    let t = ((p - a).dot(&ab) / len2).clamp(0.0, 1.0);
+    (a + ab * t, t)
+}
+
+/// Closest points between the segments `[p1, q1]` and `[p2, q2]` (Ericson, *Real-Time Collision
+/// Detection*, 5.1.9). Degenerate (zero-length) segments are handled as points.
+#[inline]
+pub fn closest_points_segments(p1: &Vec3, q1: &Vec3, p2: &Vec3, q2: &Vec3) -> (Vec3, Vec3) {
+    let d1 = q1 - p1;
+    let d2 = q2 - p2;
+    let r = p1 - p2;
+    let a = d1.norm_squared();
+    let e = d2.norm_squared();
+    let f = d2.dot(&r);
+    let tiny = Real::MIN_POSITIVE;
+    let (s, t);
+    if a <= tiny && e <= tiny {
+        return (*p1, *p2);
+    }
+    if a <= tiny {
+        s = 0.0;
+        t = (f / e).clamp(0.0, 1.0);
+    } else {
+        let c = d1.dot(&r);
+        if e <= tiny {
+            t = 0.0;
+            s = (-c / a).clamp(0.0, 1.0);
+        } else {
+            let b = d1.dot(&d2);
+            let denom = a * e - b * b;
+            let mut s0 = if denom > 0.0 {
+                ((b * f - c * e) / denom).clamp(0.0, 1.0)
+            } else {
+                0.0
+            };
+            let mut t0 = (b * s0 + f) / e;
+            if t0 < 0.0 {
+                t0 = 0.0;
+                s0 = (-c / a).clamp(0.0, 1.0);
+            } else if t0 > 1.0 {
+                t0 = 1.0;
+                s0 = ((b - c) / a).clamp(0.0, 1.0);
+            }
+            s = s0;
+            t = t0;
+        }
+    }
+    (p1 + d1 * s, p2 + d2 * t)
+}
+
+/// Unit normal of the triangle `(a, b, c)` (counter-clockwise), or `None` if degenerate.
+#[inline]
+pub fn triangle_normal(tri: &[Vec3; 3]) -> Option<Vec3> {
+    let n = (tri[1] - tri[0]).cross(&(tri[2] - tri[0]));
+    let len = n.norm();
+    (len > 0.0 && len.is_finite()).then(|| n / len)
+}
+
+/// Whether the projection of `p` on the plane of the convex polygon `poly` (unit normal `n`, CCW)
+/// lies inside the polygon (boundary included).
+#[inline]
+fn inside_prism(p: &Vec3, poly: &[Vec3], n: &Vec3) -> bool {
+    let m = poly.len();
+    for i in 0..m {
+        let a = &poly[i];
+        let b = &poly[(i + 1) % m];
+        if (b - a).cross(&(p - a)).dot(n) < 0.0 {
+            return false;
+        }
+    }
+    true
+}
+
+/// Closest point to `p` on the planar convex polygon `poly` (unit normal `n`, CCW).
+pub fn closest_point_on_polygon(p: &Vec3, poly: &[Vec3], n: &Vec3) -> Vec3 {
+    if inside_prism(p, poly, n) {
+        return p - n * n.dot(&(p - poly[0]));
+    }
+    let m = poly.len();
+    let mut best = poly[0];
+    let mut best_d2 = Real::INFINITY;
+    for i in 0..m {
+        let (c, _) = closest_point_on_segment(p, &poly[i], &poly[(i + 1) % m]);
+        let d2 = (c - p).norm_squared();
+        if d2 < best_d2 {
+            best_d2 = d2;
+            best = c;
+        }
+    }
+    best
+}
+
+/// Closest point to `p` on the triangle `tri` (any orientation; degenerate triangles are handled
+/// through their edges).
+pub fn closest_point_on_triangle(p: &Vec3, tri: &[Vec3; 3]) -> Vec3 {
+    match triangle_normal(tri) {
+        Some(n) => closest_point_on_polygon(p, tri, &n),
+        None => {
+            let mut best = tri[0];
+            let mut best_d2 = Real::INFINITY;
+            for i in 0..3 {
+                let (c, _) = closest_point_on_segment(p, &tri[i], &tri[(i + 1) % 3]);
+                let d2 = (c - p).norm_squared();
+                if d2 < best_d2 {
+                    best_d2 = d2;
+                    best = c;
+                }
+            }
+            best
+        }
+    }
+}
+
+/// Where the segment `[p, q]` crosses the planar convex polygon `poly` (unit normal `n`, CCW), if
+/// it does. A segment lying in the polygon's plane is not reported (coplanar contact is found by
+/// the distance tests).
+#[inline]
+pub fn segment_crosses_polygon(p: &Vec3, q: &Vec3, poly: &[Vec3], n: &Vec3) -> Option<Vec3> {
+    let hp = n.dot(&(p - poly[0]));
+    let hq = n.dot(&(q - poly[0]));
+    if (hp > 0.0 && hq > 0.0) || (hp < 0.0 && hq < 0.0) || hp == hq {
+        return None;
+    }
+    let t = hp / (hp - hq);
+    let x = p + (q - p) * t;
+    inside_prism(&x, poly, n).then_some(x)
+}
+
+/// Result of the exact query between two convex polygons `a` (tool side) and `b` (obstacle side).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct PairContact {
+    /// Point on (or, when intersecting, half the depth beyond) `a`.
+    pub p_a: Vec3,
+    /// Point on (or, when intersecting, half the depth beyond) `b`.
+    pub p_b: Vec3,
+    /// Unit normal pointing out of `a`, towards `b`.
+    pub n: Vec3,
+    /// Penetration depth (m): the separating-axis penetration depth when the two intersect,
+    /// minus the distance when apart. Always `p_a - p_b = depth · n`.
+    pub depth: Real,
+    /// Euclidean distance between the two sets (0 when they intersect or touch).
+    pub distance: Real,
+}
+
+/// Separating-axis penetration depth of two intersecting convex polygons, and the axis (unit,
+/// pointing from `a` towards `b`) along which translating `b` by the depth separates them.
+pub fn sat_penetration(a: &[Vec3], na: &Vec3, b: &[Vec3], nb: &Vec3) -> (Real, Vec3) {
+    let mut best = Real::INFINITY;
+    let mut best_axis = *nb;
+    // Scale of the edges, to reject near-parallel cross products.
+    let mut test = |u: Vec3| {
+        let len = u.norm();
+        if len.is_nan() || len <= 0.0 {
+            return;
+        }
+        let u = u / len;
+        let (mut a0, mut a1) = (Real::INFINITY, Real::NEG_INFINITY);
+        for v in a {
+            let s = u.dot(v);
+            a0 = a0.min(s);
+            a1 = a1.max(s);
+        }
+        let (mut b0, mut b1) = (Real::INFINITY, Real::NEG_INFINITY);
+        for v in b {
+            let s = u.dot(v);
+            b0 = b0.min(s);
+            b1 = b1.max(s);
+        }
+        let plus = a1 - b0; // move b along +u
+        let minus = b1 - a0; // move b along -u
+        let (o, axis) = if plus <= minus {
+            (plus, u)
+        } else {
+            (minus, -u)
+        };
+        if o < best {
+            best = o;
+            best_axis = axis;
+        }
+    };
+    test(*na);
+    test(*nb);
+    let (ma, mb) = (a.len(), b.len());
+    for i in 0..ma {
+        let e = a[(i + 1) % ma] - a[i];
+        let el = e.norm();
+        test(na.cross(&e));
+        for j in 0..mb {
+            let f = b[(j + 1) % mb] - b[j];
+            let c = e.cross(&f);
+            // Near-parallel edges: the cross product is noise, skip it.
+            if c.norm() > 1e-9 * el * f.norm() {
+                test(c);
+            }
+        }
+    }
+    for j in 0..mb {
+        let f = b[(j + 1) % mb] - b[j];
+        test(nb.cross(&f));
+    }
+    (best.max(0.0), best_axis)
+}
+
+/// Exact closest points / penetration between two planar convex polygons (`a` with unit normal
+/// `na`, `b` with `nb`, both CCW about their normals).
+pub fn convex_polygon_pair(a: &[Vec3], na: &Vec3, b: &[Vec3], nb: &Vec3) -> PairContact {
+    // Crossings: an edge of one polygon through the other. Their mean is a point of the
+    // intersection (the middle of the intersection segment for transversal polygons).
+    let mut cross_sum = Vec3::zeros();
+    let mut crossings = 0u32;
+    let (ma, mb) = (a.len(), b.len());
+    for i in 0..ma {
+        if let Some(x) = segment_crosses_polygon(&a[i], &a[(i + 1) % ma], b, nb) {
+            cross_sum += x;
+            crossings += 1;
+        }
+    }
+    for j in 0..mb {
+        if let Some(x) = segment_crosses_polygon(&b[j], &b[(j + 1) % mb], a, na) {
+            cross_sum += x;
+            crossings += 1;
+        }
+    }
+    let witness = if crossings > 0 {
+        Some(cross_sum / crossings as Real)
+    } else {
+        // Distance: vertex–polygon and edge–edge candidates.
+        let mut best_d2 = Real::INFINITY;
+        let mut pa = a[0];
+        let mut pb = b[0];
+        for v in a {
+            let c = closest_point_on_polygon(v, b, nb);
+            let d2 = (c - v).norm_squared();
+            if d2 < best_d2 {
+                best_d2 = d2;
+                pa = *v;
+                pb = c;
+            }
+        }
+        for v in b {
+            let c = closest_point_on_polygon(v, a, na);
+            let d2 = (c - v).norm_squared();
+            if d2 < best_d2 {
+                best_d2 = d2;
+                pa = c;
+                pb = *v;
+            }
+        }
+        for i in 0..ma {
+            for j in 0..mb {
+                let (c1, c2) =
+                    closest_points_segments(&a[i], &a[(i + 1) % ma], &b[j], &b[(j + 1) % mb]);
+                let d2 = (c2 - c1).norm_squared();
+                if d2 < best_d2 {
+                    best_d2 = d2;
+                    pa = c1;
+                    pb = c2;
+                }
+            }
+        }
+        let dist = best_d2.sqrt();
+        if dist > 0.0 {
+            let n = (pb - pa) / dist;
+            return PairContact {
+                p_a: pa,
+                p_b: pb,
+                n,
+                depth: -dist,
+                distance: dist,
+            };
+        }
+        Some((pa + pb) * 0.5)
+    };
+    let w = witness.unwrap_or(a[0]);
+    let (depth, n) = sat_penetration(a, na, b, nb);
+    PairContact {
+        p_a: w + n * (0.5 * depth),
+        p_b: w - n * (0.5 * depth),
+        n,
+        depth,
+        distance: 0.0,
+    }
+}
+
+/// Exact query between two triangles (tool triangle `a`, obstacle triangle `b`) with their unit
+/// normals; see [`convex_polygon_pair`] for the result and the depth definition.
+#[inline]
+pub fn triangle_pair(a: &[Vec3; 3], na: &Vec3, b: &[Vec3; 3], nb: &Vec3) -> PairContact {
+    convex_polygon_pair(a, na, b, nb)
+}
+
+/// Distance from `p` to the planar convex polygon `poly` (unit normal `n`, CCW).
+#[inline]
+pub fn point_polygon_distance(p: &Vec3, poly: &[Vec3], n: &Vec3) -> Real {
+    (closest_point_on_polygon(p, poly, n) - p).norm()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use proptest::prelude::*;
+
+    fn tri(a: [Real; 3], b: [Real; 3], c: [Real; 3]) -> [Vec3; 3] {
+        [Vec3::from(a), Vec3::from(b), Vec3::from(c)]
+    }
+
+    /// Dense sampling of a triangle (barycentric grid).
+    fn samples(t: &[Vec3; 3], k: usize) -> Vec<Vec3> {
+        let mut out = Vec::new();
+        for i in 0..=k {
+            for j in 0..=(k - i) {
+                let (u, v) = (i as Real / k as Real, j as Real / k as Real);
+                out.push(t[0] + (t[1] - t[0]) * u + (t[2] - t[0]) * v);
+            }
+        }
+        out
+    }
+
+    fn arb_point() -> impl Strategy<Value = Vec3> {
+        (-1.0..1.0f64, -1.0..1.0f64, -1.0..1.0f64).prop_map(|(x, y, z)| Vec3::new(x, y, z))
+    }
+
+    fn arb_tri() -> impl Strategy<Value = [Vec3; 3]> {
+        (arb_point(), arb_point(), arb_point())
+            .prop_filter("non-degenerate", |(a, b, c)| {
+                (b - a).cross(&(c - a)).norm() > 1e-3
+            })
+            .prop_map(|(a, b, c)| [a, b, c])
+    }
+
+    #[test]
+    fn segment_closest_points_known_cases() {
+        // Crossing segments.
+        let (c1, c2) = closest_points_segments(
+            &Vec3::new(-1.0, 0.0, 0.0),
+            &Vec3::new(1.0, 0.0, 0.0),
+            &Vec3::new(0.0, -1.0, 1.0),
+            &Vec3::new(0.0, 1.0, 1.0),
+        );
+        assert!((c1 - Vec3::zeros()).norm() < 1e-15);
+        assert!((c2 - Vec3::new(0.0, 0.0, 1.0)).norm() < 1e-15);
+        // Parallel segments, overlapping in projection.
+        let (c1, c2) = closest_points_segments(
+            &Vec3::new(0.0, 0.0, 0.0),
+            &Vec3::new(2.0, 0.0, 0.0),
+            &Vec3::new(1.0, 1.0, 0.0),
+            &Vec3::new(3.0, 1.0, 0.0),
+        );
+        assert!(((c1 - c2).norm() - 1.0).abs() < 1e-15);
+        // A point against a segment.
+        let p = Vec3::new(0.5, 2.0, 0.0);
+        let (c1, c2) = closest_points_segments(&p, &p, &Vec3::zeros(), &Vec3::x());
+        assert_eq!(c1, p);
+        assert!((c2 - Vec3::new(0.5, 0.0, 0.0)).norm() < 1e-15);
+    }
+
+    #[test]
+    fn separated_triangles_distance_and_normal() {
+        let a = tri([0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0]);
+        let b = tri([0.0, 0.0, 0.5], [0.0, 1.0, 0.5], [1.0, 0.0, 0.5]);
+        let na = triangle_normal(&a).unwrap();
+        let nb = triangle_normal(&b).unwrap();
+        let c = triangle_pair(&a, &na, &b, &nb);
+        assert!((c.distance - 0.5).abs() < 1e-15);
+        assert!((c.depth + 0.5).abs() < 1e-15);
+        assert!((c.n - Vec3::z()).norm() < 1e-12);
+        assert!((c.p_a - c.p_b - c.n * c.depth).norm() < 1e-15);
+    }
+
+    #[test]
+    fn crossing_triangles_have_sat_depth() {
+        // a lies in z = 0; b is vertical and pokes 0.1 below z = 0 through a's interior.
+        let a = tri([-1.0, -1.0, 0.0], [2.0, -1.0, 0.0], [-1.0, 2.0, 0.0]);
+        let b = tri([0.0, -0.2, -0.1], [0.0, 0.2, -0.1], [0.0, 0.0, 1.0]);
+        let na = triangle_normal(&a).unwrap();
+        let nb = triangle_normal(&b).unwrap();
+        let c = triangle_pair(&a, &na, &b, &nb);
+        assert_eq!(c.distance, 0.0);
+        // Shortest separation: push b up by 0.1 (out of a, along +z).
+        assert!((c.depth - 0.1).abs() < 1e-12, "{c:?}");
+        assert!((c.n - Vec3::z()).norm() < 1e-12);
+        assert!((c.p_a - c.p_b - c.n * c.depth).norm() < 1e-14);
+    }
+
+    proptest! {
+        #![proptest_config(ProptestConfig::with_cases(128))]
+
+        #[test]
+        fn point_triangle_is_closest(t in arb_tri(), p in arb_point()) {
+            let c = closest_point_on_triangle(&p, &t);
+            let d = (c - p).norm();
+            for s in samples(&t, 12) {
+                prop_assert!(d <= (s - p).norm() + 1e-12);
+            }
+            // c is on the triangle: distance from c to the triangle is 0.
+            let back = closest_point_on_triangle(&c, &t);
+            prop_assert!((back - c).norm() < 1e-12);
+        }
+
+        #[test]
+        fn triangle_pair_distance_is_minimal(a in arb_tri(), b in arb_tri()) {
+            let na = triangle_normal(&a).unwrap();
+            let nb = triangle_normal(&b).unwrap();
+            let c = triangle_pair(&a, &na, &b, &nb);
+            prop_assert!((c.n.norm() - 1.0).abs() < 1e-9);
+            prop_assert!((c.p_a - c.p_b - c.n * c.depth).norm() < 1e-12);
+            if c.distance > 0.0 {
+                // Witness points lie on the triangles and realise the distance.
+                prop_assert!((closest_point_on_triangle(&c.p_a, &a) - c.p_a).norm() < 1e-12);
+                prop_assert!((closest_point_on_triangle(&c.p_b, &b) - c.p_b).norm() < 1e-12);
+                let sa = samples(&a, 10);
+                for s in &sa {
+                    let q = closest_point_on_triangle(s, &b);
+                    prop_assert!(c.distance <= (q - s).norm() + 1e-12);
+                }
+            } else {
+                // Intersecting: translating b by depth along n separates (up to rounding).
+                let shift = c.n * (c.depth + 1e-9);
+                let moved = [b[0] + shift, b[1] + shift, b[2] + shift];
+                let after = triangle_pair(&a, &na, &moved, &nb);
+                prop_assert!(after.distance > 0.0, "{c:?} {after:?}");
+                prop_assert!(c.depth >= 0.0);
+            }
+        }
+
+        #[test]
+        fn sat_depth_is_the_shortest_separation(a in arb_tri(), b in arb_tri(), dir in arb_point()) {
+            let na = triangle_normal(&a).unwrap();
+            let nb = triangle_normal(&b).unwrap();
+            let c = triangle_pair(&a, &na, &b, &nb);
+            prop_assume!(c.distance == 0.0 && dir.norm() > 1e-3);
+            // No translation of b shorter than the depth separates the triangles.
+            let u = dir.normalize();
+            let shift = u * (c.depth * (1.0 - 1e-6) - 1e-12).max(0.0);
+            let moved = [b[0] + shift, b[1] + shift, b[2] + shift];
+            let after = triangle_pair(&a, &na, &moved, &nb);
+            prop_assert!(after.distance < 1e-9, "{c:?} {after:?}");
+        }
+    }
+}

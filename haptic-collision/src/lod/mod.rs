@@ -1,0 +1,269 @@
+//! `LodBackend`: sensation-preserving multiresolution collision detection after Otaduy & Lin,
+//! *Sensation preserving simplification for haptic rendering* (SIGGRAPH 2003), the paper's
+//! ref. [9] (formulation.md, last section).
+//!
+//! Preprocessing ([`Hierarchy::build`]) turns each mesh into one binary hierarchy that is both a
+//! bounding-volume hierarchy (spheres and slabs) and a level-of-detail hierarchy: every node
+//! carries a simplified convex piece of the surface below it (a planar convex polygon, a leaf's
+//! piece being its triangle) and the piece's surface deviation `s`, an upper bound on the
+//! two-sided Hausdorff distance between piece and triangles.
+//!
+//! A query places the tool, runs a broad phase (root spheres inflated by `δ`), then walks the
+//! tool's hierarchy against each obstacle's. A node pair is culled when its bounding volumes are
+//! farther apart than `δ`; it stops when `s_a + s_b <= ε`, with `ε = error_threshold ×`
+//! [`LodBackend::tool_bounding_radius_m`], and reports one contact from the two pieces; otherwise
+//! the node with the larger deviation is split. At `error_threshold = 0` the walk descends to
+//! triangle pairs and the contacts are exact (the same as [`crate::reference::ReferenceBackend`]).
+//!
+//! Contact convention (haptic-core [`Contact`](haptic_core::Contact)): `p_a` on the tool, `p_b` on
+//! the obstacle, `n` out of the tool, `depth_m = −distance` when apart and the separating-axis
+//! penetration depth of the two convex features when they intersect (see [`crate::geometry`]).
+//! `feature_a`/`feature_b` are the source triangle indices for exact (triangle-pair) contacts and
+//! [`NO_FEATURE`](haptic_core::NO_FEATURE) for contacts between coarse pieces.
+
+mod build;
+pub(crate) mod query;
+
+use std::time::Instant;
+
+use haptic_core::{CollisionBackend, ContactSet, CoreError, Pose, QueryParams, QueryStats, Real};
+
+pub use build::Hierarchy;
+use query::{Frames, Walk, collide};
+
+use crate::mesh::TriMesh;
+
+/// Most vertices of a node's simplified convex piece.
+pub const MAX_PIECE_VERTICES: usize = 6;
+
+/// Errors of the multiresolution back-end.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+#[non_exhaustive]
+pub enum LodError {
+    /// A pose had NaN or Inf components.
+    #[error("{what} is not finite")]
+    NonFinitePose {
+        /// Which pose.
+        what: &'static str,
+    },
+    /// Query parameters out of range (they are public fields, so they are checked again).
+    #[error("{what} = {value} is out of range: {expected}")]
+    BadParams {
+        /// Which parameter.
+        what: &'static str,
+        /// The value given.
+        value: Real,
+        /// What was expected.
+        expected: &'static str,
+    },
+    /// A mesh has more triangles than the hierarchy's 32-bit indices can address.
+    #[error("mesh has {triangles} triangles, more than the hierarchy supports")]
+    TooManyTriangles {
+        /// Number of triangles.
+        triangles: usize,
+    },
+    /// A contact could not be formed (non-finite geometry).
+    #[error(transparent)]
+    Contact(#[from] CoreError),
+}
+
+/// Build figures of one mesh's hierarchy.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct MeshBuildStats {
+    /// Triangles of the mesh.
+    pub triangles: usize,
+    /// Nodes of the hierarchy.
+    pub nodes: usize,
+    /// Wall-clock build time (s).
+    pub build_s: Real,
+    /// Heap memory of the hierarchy (bytes).
+    pub memory_bytes: usize,
+}
+
+impl MeshBuildStats {
+    fn of(h: &Hierarchy) -> Self {
+        Self {
+            triangles: h.triangle_count(),
+            nodes: h.node_count(),
+            build_s: h.build_s(),
+            memory_bytes: h.memory_bytes(),
+        }
+    }
+}
+
+/// Build figures of the whole back-end.
+#[derive(Debug, Clone, PartialEq)]
+pub struct BuildStats {
+    /// The tool's hierarchy.
+    pub tool: MeshBuildStats,
+    /// Each obstacle's hierarchy, in the order given.
+    pub obstacles: Vec<MeshBuildStats>,
+    /// Total wall-clock time of [`LodBackend::new`] (s).
+    pub total_s: Real,
+}
+
+/// The native sensation-preserving multiresolution collision back-end (see the module docs).
+#[derive(Debug, Clone)]
+pub struct LodBackend {
+    tool: Hierarchy,
+    obstacles: Vec<(Hierarchy, Pose)>,
+    stack: Vec<(u32, u32)>,
+    stats: BuildStats,
+}
+
+const MAX_TRIANGLES: usize = (u32::MAX / 4) as usize;
+
+impl LodBackend {
+    /// Builds the hierarchies of the tool (its body frame) and of the static obstacles, each placed
+    /// at its pose in the world.
+    ///
+    /// # Errors
+    /// [`LodError::NonFinitePose`] for a non-finite obstacle pose, [`LodError::TooManyTriangles`]
+    /// for a mesh beyond 2³⁰ triangles.
+    pub fn new(tool: &TriMesh, obstacles: &[(TriMesh, Pose)]) -> Result<Self, LodError> {
+        let start = Instant::now();
+        for mesh in std::iter::once(tool).chain(obstacles.iter().map(|(m, _)| m)) {
+            if mesh.triangles().len() > MAX_TRIANGLES {
+                return Err(LodError::TooManyTriangles {
+                    triangles: mesh.triangles().len(),
+                });
+            }
+        }
+        if obstacles.iter().any(|(_, p)| !p.is_finite()) {
+            return Err(LodError::NonFinitePose {
+                what: "obstacle pose",
+            });
+        }
+        let tool = Hierarchy::build(tool);
+        let obstacles: Vec<(Hierarchy, Pose)> = obstacles
+            .iter()
+            .map(|(m, p)| (Hierarchy::build(m), *p))
+            .collect();
+        // Every pop pushes at most two pairs and each split goes one level down one tree, so the
+        // stack never holds more than height_a + height_b + 1 pairs: reserving that up front means
+        // a query never allocates.
+        let stack_bound =
+            tool.height() + obstacles.iter().map(|(h, _)| h.height()).max().unwrap_or(0) + 2;
+        let stats = BuildStats {
+            tool: MeshBuildStats::of(&tool),
+            obstacles: obstacles
+                .iter()
+                .map(|(h, _)| MeshBuildStats::of(h))
+                .collect(),
+            total_s: start.elapsed().as_secs_f64(),
+        };
+        Ok(Self {
+            tool,
+            obstacles,
+            stack: Vec::with_capacity(stack_bound),
+            stats,
+        })
+    }
+
+    /// Build figures (time, node counts, memory).
+    pub fn build_stats(&self) -> &BuildStats {
+        &self.stats
+    }
+
+    /// Total nodes of all hierarchies.
+    pub fn node_count(&self) -> usize {
+        self.tool.node_count()
+            + self
+                .obstacles
+                .iter()
+                .map(|(h, _)| h.node_count())
+                .sum::<usize>()
+    }
+
+    /// Heap memory held by the back-end (bytes).
+    pub fn memory_bytes(&self) -> usize {
+        self.tool.memory_bytes()
+            + self
+                .obstacles
+                .iter()
+                .map(|(h, _)| h.memory_bytes())
+                .sum::<usize>()
+            + self.stack.capacity() * std::mem::size_of::<(u32, u32)>()
+    }
+
+    /// Capacity of the traversal stack (it is reused between queries; tests check that it stops
+    /// growing after warm-up).
+    pub fn scratch_capacity(&self) -> usize {
+        self.stack.capacity()
+    }
+
+    /// The tool's hierarchy.
+    pub fn tool_hierarchy(&self) -> &Hierarchy {
+        &self.tool
+    }
+}
+
+/// Checks the public fields of the query parameters.
+pub(crate) fn check_params(params: &QueryParams) -> Result<(), LodError> {
+    if !(params.delta_m > 0.0 && params.delta_m.is_finite()) {
+        return Err(LodError::BadParams {
+            what: "delta_m",
+            value: params.delta_m,
+            expected: "positive and finite",
+        });
+    }
+    if !(params.error_threshold >= 0.0 && params.error_threshold.is_finite()) {
+        return Err(LodError::BadParams {
+            what: "error_threshold",
+            value: params.error_threshold,
+            expected: "non-negative and finite",
+        });
+    }
+    Ok(())
+}
+
+impl CollisionBackend for LodBackend {
+    type Error = LodError;
+
+    fn name(&self) -> &str {
+        "lod"
+    }
+
+    fn tool_bounding_radius_m(&self) -> Real {
+        self.tool.radius_about_origin_m()
+    }
+
+    fn query(
+        &mut self,
+        tool_pose: &Pose,
+        params: &QueryParams,
+        out: &mut ContactSet,
+    ) -> Result<QueryStats, LodError> {
+        out.clear();
+        check_params(params)?;
+        if !tool_pose.is_finite() {
+            return Err(LodError::NonFinitePose { what: "tool pose" });
+        }
+        let mut stats = QueryStats::default();
+        let epsilon_m = params.error_threshold * self.tool.radius_about_origin_m();
+        let tool_root = self.tool.nodes[0];
+        let tool_center_w = tool_pose.transform_point(&tool_root.center);
+        for (obs, pose) in &self.obstacles {
+            // Broad phase: root spheres inflated by δ, in the world frame.
+            let ob = &obs.nodes[0];
+            let reach = tool_root.radius + ob.radius + params.delta_m;
+            if (tool_center_w - pose.transform_point(&ob.center)).norm_squared() > reach * reach {
+                continue;
+            }
+            stats.broad_phase_hit = true;
+            let frames = Frames::new(tool_pose, pose);
+            let walk = Walk {
+                frames: &frames,
+                epsilon_m,
+                delta_m: params.delta_m,
+            };
+            collide(&self.tool, obs, &walk, &mut self.stack, out, &mut stats)?;
+        }
+        Ok(stats)
+    }
+}
+
+#[cfg(test)]
+pub(crate) mod testmesh;
+#[cfg(test)]
+mod tests;

@@ -1,0 +1,174 @@
+//! The query: both hierarchies walked together (tool placed in the obstacle's mesh frame).
+
+use haptic_core::{Contact, ContactSet, Mat3, Pose, QueryStats, Real, Vec3};
+
+use super::build::{Hierarchy, Node};
+use super::{LodError, MAX_PIECE_VERTICES};
+use crate::geometry::{PairContact, convex_polygon_pair};
+
+/// The rigid map from the tool's body frame to one obstacle's mesh frame, and what is needed to
+/// write contacts in the world frame.
+#[derive(Debug, Clone, Copy)]
+pub(crate) struct Frames {
+    /// Tool body → obstacle mesh frame: rotation.
+    pub rot: Mat3,
+    /// Tool body → obstacle mesh frame: translation.
+    pub trans: Vec3,
+    /// Obstacle mesh → world: rotation.
+    pub obs_rot: Mat3,
+    /// Obstacle mesh → world: translation.
+    pub obs_pos: Vec3,
+    /// World → tool body: rotation (transpose of the tool's orientation).
+    pub tool_rot_t: Mat3,
+    /// Tool position (world).
+    pub tool_pos: Vec3,
+}
+
+impl Frames {
+    /// Frames for the tool at `tool` and an obstacle at `obstacle` (both body → world).
+    pub fn new(tool: &Pose, obstacle: &Pose) -> Self {
+        let rt = tool.orientation.to_rotation_matrix().into_inner();
+        let ro = obstacle.orientation.to_rotation_matrix().into_inner();
+        let ro_t = ro.transpose();
+        Self {
+            rot: ro_t * rt,
+            trans: ro_t * (tool.position - obstacle.position),
+            obs_rot: ro,
+            obs_pos: obstacle.position,
+            tool_rot_t: rt.transpose(),
+            tool_pos: tool.position,
+        }
+    }
+
+    /// A tool-frame point in the obstacle frame.
+    #[inline]
+    pub fn point(&self, p: &Vec3) -> Vec3 {
+        self.rot * p + self.trans
+    }
+
+    /// Writes a pair result (obstacle frame) as a world-frame contact.
+    ///
+    /// # Errors
+    /// [`LodError::Contact`] if the contact is not finite (a degenerate input).
+    #[inline]
+    pub fn emit(
+        &self,
+        pc: &PairContact,
+        feature_a: u32,
+        feature_b: u32,
+        out: &mut ContactSet,
+    ) -> Result<(), LodError> {
+        let p_a = self.obs_rot * pc.p_a + self.obs_pos;
+        let p_b = self.obs_rot * pc.p_b + self.obs_pos;
+        let n = self.obs_rot * pc.n;
+        let r_a = self.tool_rot_t * (p_a - self.tool_pos);
+        let c = Contact::new(p_a, r_a, p_b, n, pc.depth)?.with_features(feature_a, feature_b);
+        out.push(c);
+        Ok(())
+    }
+}
+
+/// Whether a tool node (already in the obstacle frame: centre `ca`, normal `na`, plane point `pa`)
+/// and an obstacle node are farther apart than `delta` (conservative: spheres and slabs).
+#[inline]
+fn culled(a: &Node, ca: &Vec3, na: &Vec3, pa: &Vec3, b: &Node, delta: Real) -> bool {
+    let d = ca - b.center;
+    let reach = a.radius + b.radius + delta;
+    if d.norm_squared() > reach * reach {
+        return true;
+    }
+    if na.dot(&(b.center - pa)).abs() - a.half_thickness - b.radius > delta {
+        return true;
+    }
+    b.normal.dot(&(ca - b.plane_point)).abs() - b.half_thickness - a.radius > delta
+}
+
+/// The tool's piece of `a` in the obstacle frame, into `buf`; returns its length and normal.
+#[inline]
+fn place_piece(
+    tool: &Hierarchy,
+    a: &Node,
+    frames: &Frames,
+    buf: &mut [Vec3; MAX_PIECE_VERTICES],
+) -> (usize, Vec3) {
+    let piece = tool.piece_of(a);
+    for (dst, v) in buf.iter_mut().zip(piece) {
+        *dst = frames.point(v);
+    }
+    (piece.len(), frames.rot * a.normal)
+}
+
+/// What one traversal needs besides the hierarchies.
+pub(crate) struct Walk<'a> {
+    pub frames: &'a Frames,
+    /// Absolute error threshold (m) on `s_a + s_b`; 0 descends to triangles.
+    pub epsilon_m: Real,
+    /// Distance tolerance δ (m).
+    pub delta_m: Real,
+}
+
+/// Walks tool × obstacle from the root pair, writing contacts into `out`.
+///
+/// # Errors
+/// [`LodError::Contact`] for a non-finite contact.
+pub(crate) fn collide(
+    tool: &Hierarchy,
+    obs: &Hierarchy,
+    walk: &Walk<'_>,
+    stack: &mut Vec<(u32, u32)>,
+    out: &mut ContactSet,
+    stats: &mut QueryStats,
+) -> Result<(), LodError> {
+    stack.clear();
+    stack.push((0, 0));
+    let frames = walk.frames;
+    let mut buf = [Vec3::zeros(); MAX_PIECE_VERTICES];
+    while let Some((ia, ib)) = stack.pop() {
+        let a = &tool.nodes[ia as usize];
+        let b = &obs.nodes[ib as usize];
+        stats.node_pairs_tested += 1;
+        let ca = frames.point(&a.center);
+        let na = frames.rot * a.normal;
+        let pa = frames.point(&a.plane_point);
+        if culled(a, &ca, &na, &pa, b, walk.delta_m) {
+            continue;
+        }
+        let (leaf_a, leaf_b) = (a.is_leaf(), b.is_leaf());
+        // Stopping rule of the CLOD traversal: both pieces within the error budget.
+        let stop = (leaf_a && leaf_b)
+            || (walk.epsilon_m > 0.0 && a.deviation + b.deviation <= walk.epsilon_m);
+        if stop {
+            let (len, na) = place_piece(tool, a, frames, &mut buf);
+            let pb = obs.piece_of(b);
+            stats.primitive_pairs_tested += 1;
+            let pc = convex_polygon_pair(&buf[..len], &na, pb, &b.normal);
+            if pc.depth >= -walk.delta_m {
+                let (fa, fb) = if leaf_a && leaf_b {
+                    (a.triangle, b.triangle)
+                } else {
+                    (haptic_core::NO_FEATURE, haptic_core::NO_FEATURE)
+                };
+                frames.emit(&pc, fa, fb, out)?;
+            }
+            continue;
+        }
+        // Descend the node with the larger deviation (ties: the larger one).
+        let split_a = if leaf_a {
+            false
+        } else if leaf_b {
+            true
+        } else if a.deviation != b.deviation {
+            a.deviation > b.deviation
+        } else {
+            a.radius >= b.radius
+        };
+        if split_a {
+            stack.push((a.right, ib));
+            stack.push((ia + 1, ib));
+        } else {
+            stack.push((ia, b.right));
+            stack.push((ia, ib + 1));
+        }
+    }
+    Ok(())
+}

@@ -1,0 +1,128 @@
+//! Procedural meshes for the tests: boxes, icospheres, bumpy spheres.
+
+use std::collections::HashMap;
+
+use haptic_core::{Real, Vec3};
+
+use crate::mesh::{DegeneratePolicy, TriMesh};
+
+/// A small deterministic generator (64-bit LCG), uniform in `[0, 1)`.
+pub struct Lcg(pub u64);
+
+impl Lcg {
+    pub fn next(&mut self) -> Real {
+        self.0 = self
+            .0
+            .wrapping_mul(6_364_136_223_846_793_005)
+            .wrapping_add(1_442_695_040_888_963_407);
+        (self.0 >> 11) as Real / (1u64 << 53) as Real
+    }
+}
+
+pub fn mesh(vertices: Vec<Vec3>, triangles: Vec<[u32; 3]>) -> TriMesh {
+    TriMesh::new(vertices, triangles, DegeneratePolicy::Reject)
+        .expect("test mesh is valid")
+        .0
+}
+
+/// An axis-aligned box of half-extents `h` centred at the origin, outward CCW triangles.
+pub fn cuboid(h: Vec3) -> TriMesh {
+    let v: Vec<Vec3> = (0..8)
+        .map(|i| {
+            Vec3::new(
+                if i & 1 == 0 { -h.x } else { h.x },
+                if i & 2 == 0 { -h.y } else { h.y },
+                if i & 4 == 0 { -h.z } else { h.z },
+            )
+        })
+        .collect();
+    let t = vec![
+        [0, 2, 1],
+        [1, 2, 3],
+        [4, 5, 6],
+        [5, 7, 6],
+        [0, 1, 4],
+        [1, 5, 4],
+        [2, 6, 3],
+        [3, 6, 7],
+        [0, 4, 2],
+        [2, 4, 6],
+        [1, 3, 5],
+        [3, 7, 5],
+    ];
+    mesh(v, t)
+}
+
+/// Unit icosphere after `levels` subdivisions (20·4^levels triangles).
+pub fn icosphere_raw(levels: usize) -> (Vec<Vec3>, Vec<[u32; 3]>) {
+    let p = (1.0 + 5.0f64.sqrt()) / 2.0;
+    let mut v: Vec<Vec3> = [
+        [-1.0, p, 0.0],
+        [1.0, p, 0.0],
+        [-1.0, -p, 0.0],
+        [1.0, -p, 0.0],
+        [0.0, -1.0, p],
+        [0.0, 1.0, p],
+        [0.0, -1.0, -p],
+        [0.0, 1.0, -p],
+        [p, 0.0, -1.0],
+        [p, 0.0, 1.0],
+        [-p, 0.0, -1.0],
+        [-p, 0.0, 1.0],
+    ]
+    .iter()
+    .map(|c| Vec3::from(*c).normalize())
+    .collect();
+    let mut t: Vec<[u32; 3]> = vec![
+        [0, 11, 5],
+        [0, 5, 1],
+        [0, 1, 7],
+        [0, 7, 10],
+        [0, 10, 11],
+        [1, 5, 9],
+        [5, 11, 4],
+        [11, 10, 2],
+        [10, 7, 6],
+        [7, 1, 8],
+        [3, 9, 4],
+        [3, 4, 2],
+        [3, 2, 6],
+        [3, 6, 8],
+        [3, 8, 9],
+        [4, 9, 5],
+        [2, 4, 11],
+        [6, 2, 10],
+        [8, 6, 7],
+        [9, 8, 1],
+    ];
+    for _ in 0..levels {
+        let mut cache: HashMap<(u32, u32), u32> = HashMap::new();
+        let mut mid = |a: u32, b: u32, v: &mut Vec<Vec3>| {
+            let key = (a.min(b), a.max(b));
+            *cache.entry(key).or_insert_with(|| {
+                v.push(((v[a as usize] + v[b as usize]) * 0.5).normalize());
+                (v.len() - 1) as u32
+            })
+        };
+        let mut next = Vec::with_capacity(t.len() * 4);
+        for [a, b, c] in t {
+            let ab = mid(a, b, &mut v);
+            let bc = mid(b, c, &mut v);
+            let ca = mid(c, a, &mut v);
+            next.extend([[a, ab, ca], [b, bc, ab], [c, ca, bc], [ab, bc, ca]]);
+        }
+        t = next;
+    }
+    (v, t)
+}
+
+/// Sphere of radius `r` whose vertex radii are perturbed by up to `bump · r` (closed, bumpy).
+pub fn bumpy_sphere(levels: usize, r: Real, bump: Real, seed: u64) -> TriMesh {
+    let (v, t) = icosphere_raw(levels);
+    let mut rng = Lcg(seed);
+    let v = v
+        .into_iter()
+        .map(|p| p * r * (1.0 + bump * (2.0 * rng.next() - 1.0)))
+        .collect();
+    mesh(v, t)
+}

@@ -1,0 +1,404 @@
+use haptic_core::{CollisionBackend, ContactSet, Pose, QueryParams, Real, Vec3};
+use nalgebra::{UnitQuaternion, Vector3};
+use proptest::prelude::*;
+
+use super::build::Hierarchy;
+use super::testmesh::{Lcg, bumpy_sphere, cuboid, icosphere_raw, mesh};
+use super::{LodBackend, LodError};
+use crate::geometry::{closest_point_on_triangle, point_polygon_distance, triangle_normal};
+use crate::mesh::TriMesh;
+use crate::reference::ReferenceBackend;
+
+/// Signed volume of a closed mesh (positive for outward CCW triangles).
+fn volume(m: &TriMesh) -> Real {
+    (0..m.triangles().len())
+        .map(|t| {
+            let [a, b, c] = m.triangle(t);
+            a.dot(&b.cross(&c)) / 6.0
+        })
+        .sum()
+}
+
+/// Triangles below node `i`.
+fn triangles_below(h: &Hierarchy, i: usize, out: &mut Vec<u32>) {
+    let node = &h.nodes[i];
+    if node.is_leaf() {
+        out.push(node.triangle);
+    } else {
+        triangles_below(h, i + 1, out);
+        triangles_below(h, node.right as usize, out);
+    }
+}
+
+/// Barycentric grid samples of a triangle.
+fn samples(t: &[Vec3; 3], k: usize, out: &mut Vec<Vec3>) {
+    for i in 0..=k {
+        for j in 0..=(k - i) {
+            let (u, v) = (i as Real / k as Real, j as Real / k as Real);
+            out.push(t[0] + (t[1] - t[0]) * u + (t[2] - t[0]) * v);
+        }
+    }
+}
+
+fn meshes_for_tests() -> Vec<TriMesh> {
+    vec![
+        cuboid(Vec3::new(0.03, 0.02, 0.01)),
+        bumpy_sphere(2, 0.05, 0.0, 1),
+        bumpy_sphere(2, 0.04, 0.05, 7),
+        {
+            // An open, wavy height-field sheet (concave and convex parts).
+            let n = 8;
+            let mut v = Vec::new();
+            for i in 0..=n {
+                for j in 0..=n {
+                    let (x, y) = (i as Real / n as Real - 0.5, j as Real / n as Real - 0.5);
+                    v.push(Vec3::new(x, y, 0.1 * (6.0 * x).sin() * (4.0 * y).cos()) * 0.1);
+                }
+            }
+            let mut t = Vec::new();
+            for i in 0..n as u32 {
+                for j in 0..n as u32 {
+                    let a = i * (n as u32 + 1) + j;
+                    let b = a + n as u32 + 1;
+                    t.push([a, b, a + 1]);
+                    t.push([a + 1, b, b + 1]);
+                }
+            }
+            mesh(v, t)
+        },
+    ]
+}
+
+#[test]
+fn test_meshes_are_outward() {
+    assert!(volume(&cuboid(Vec3::new(1.0, 2.0, 3.0))) > 47.9);
+    let (v, t) = icosphere_raw(1);
+    assert!(volume(&mesh(v, t)) > 0.0);
+}
+
+#[test]
+fn hierarchy_bounds_and_deviation_are_true_upper_bounds() {
+    for m in meshes_for_tests() {
+        let h = Hierarchy::build(&m);
+        assert_eq!(h.node_count(), 2 * m.triangles().len() - 1);
+        let mut finite = 0;
+        for i in 0..h.node_count() {
+            let node = h.nodes[i];
+            let mut tris = Vec::new();
+            triangles_below(&h, i, &mut tris);
+            let mut pts = Vec::new();
+            for &t in &tris {
+                samples(&m.triangle(t as usize), 6, &mut pts);
+            }
+            // Sphere and slab enclose the surface.
+            for p in &pts {
+                assert!((p - node.center).norm() <= node.radius * (1.0 + 1e-9) + 1e-15);
+                assert!(
+                    node.normal.dot(&(p - node.plane_point)).abs() <= node.half_thickness + 1e-12
+                );
+            }
+            if !node.deviation.is_finite() {
+                continue;
+            }
+            finite += 1;
+            let s = node.deviation;
+            let piece = h.piece_of(&node);
+            assert!(piece.len() >= 3 && piece.len() <= super::MAX_PIECE_VERTICES);
+            // Surface → piece.
+            for p in &pts {
+                let d = point_polygon_distance(p, piece, &node.normal);
+                assert!(
+                    d <= s + 1e-12,
+                    "node {i}: surface point {d} from piece, s = {s}"
+                );
+            }
+            // Piece → surface (fan samples of the polygon).
+            let mut qs = Vec::new();
+            for k in 1..piece.len() - 1 {
+                samples(&[piece[0], piece[k], piece[k + 1]], 8, &mut qs);
+            }
+            for q in &qs {
+                let d = tris
+                    .iter()
+                    .map(|&t| (closest_point_on_triangle(q, &m.triangle(t as usize)) - q).norm())
+                    .fold(Real::INFINITY, Real::min);
+                assert!(
+                    d <= s + 1e-12,
+                    "node {i}: piece point {d} from surface, s = {s}"
+                );
+            }
+            // The piece is convex and CCW about the normal.
+            for k in 0..piece.len() {
+                let (a, b, c) = (
+                    piece[k],
+                    piece[(k + 1) % piece.len()],
+                    piece[(k + 2) % piece.len()],
+                );
+                assert!((b - a).cross(&(c - b)).dot(&node.normal) >= -1e-15);
+            }
+        }
+        assert!(
+            finite > h.node_count() / 2,
+            "most nodes must have a usable piece"
+        );
+        // Deviation is a useful figure: leaves exact, fine inner nodes small.
+        assert!(
+            h.nodes
+                .iter()
+                .filter(|n| n.is_leaf())
+                .all(|n| n.deviation == 0.0)
+        );
+    }
+}
+
+fn random_pose(rng: &mut Lcg, spread: Real) -> Pose {
+    let axis = Vector3::new(rng.next() - 0.5, rng.next() - 0.5, rng.next() - 0.5);
+    let angle = 3.0 * rng.next();
+    let q = UnitQuaternion::from_scaled_axis(axis.normalize() * angle);
+    Pose {
+        position: Vec3::new(rng.next() - 0.5, rng.next() - 0.5, rng.next() - 0.5) * spread,
+        orientation: q,
+    }
+}
+
+fn scene(seed: u64) -> (TriMesh, Vec<(TriMesh, Pose)>) {
+    let tool = bumpy_sphere(1, 0.03, 0.15, seed);
+    let mut rng = Lcg(seed ^ 0x9e37);
+    let obstacles = vec![
+        (
+            cuboid(Vec3::new(0.04, 0.03, 0.02)),
+            random_pose(&mut rng, 0.02),
+        ),
+        (
+            bumpy_sphere(2, 0.035, 0.1, seed + 1),
+            random_pose(&mut rng, 0.02),
+        ),
+    ];
+    (tool, obstacles)
+}
+
+fn min_distance_and_max_depth(set: &ContactSet) -> (Real, Real) {
+    let max_depth = set.max_depth_m().unwrap_or(Real::NEG_INFINITY);
+    let min_dist = set
+        .iter()
+        .map(|c| (-c.depth_m).max(0.0))
+        .fold(Real::INFINITY, Real::min);
+    (min_dist, max_depth)
+}
+
+proptest! {
+    #![proptest_config(ProptestConfig::with_cases(64))]
+
+    /// Threshold 0 is exact: the same contacts as the all-pairs reference.
+    #[test]
+    fn threshold_zero_matches_brute_force(seed in 0u64..1_000_000, pose_seed in 0u64..1_000_000) {
+        let (tool, obstacles) = scene(seed);
+        let mut lod = LodBackend::new(&tool, &obstacles).unwrap();
+        let mut reference = ReferenceBackend::new(&tool, &obstacles).unwrap();
+        let pose = random_pose(&mut Lcg(pose_seed), 0.09);
+        let params = QueryParams::new(0.01, 0.0).unwrap();
+        let (mut a, mut b) = (ContactSet::new(), ContactSet::new());
+        lod.query(&pose, &params, &mut a).unwrap();
+        reference.query(&pose, &params, &mut b).unwrap();
+        prop_assert_eq!(a.len(), b.len());
+        let key = |c: &haptic_core::Contact| (c.feature_a, c.feature_b);
+        let mut ka: Vec<_> = a.iter().map(key).collect();
+        let mut kb: Vec<_> = b.iter().map(key).collect();
+        ka.sort_unstable();
+        kb.sort_unstable();
+        prop_assert_eq!(&ka, &kb);
+        let (da, pa) = min_distance_and_max_depth(&a);
+        let (db, pb) = min_distance_and_max_depth(&b);
+        if !a.is_empty() {
+            prop_assert!((da - db).abs() <= 1e-9 && (pa - pb).abs() <= 1e-9, "{da} {db} {pa} {pb}");
+        }
+        for c in a.iter() {
+            prop_assert!(c.depth_m >= -0.01);
+            prop_assert!((c.p_a - c.p_b - c.n * c.depth_m).norm() < 1e-12);
+            prop_assert!((pose.transform_point(&c.r_a) - c.p_a).norm() < 1e-12);
+        }
+    }
+
+    /// Above 0: never more node pairs, and the closest approach is off by at most ε when the
+    /// exact configuration is apart (D > ε) and within reach (D < δ − ε).
+    #[test]
+    fn threshold_error_is_bounded(seed in 0u64..1_000_000, gap in 0.002f64..0.012, threshold in 0.005f64..0.05) {
+        let tool = bumpy_sphere(2, 0.03, 0.03, seed);
+        let obstacle = bumpy_sphere(2, 0.04, 0.03, seed + 11);
+        let mut rng = Lcg(seed);
+        let dir = Vec3::new(rng.next() - 0.5, rng.next() - 0.5, rng.next() - 0.5).normalize();
+        let mut pose = random_pose(&mut rng, 0.0);
+        pose.position = dir * (0.03 + 0.04 + gap);
+        let obstacles = vec![(obstacle, Pose::identity())];
+        let mut lod = LodBackend::new(&tool, &obstacles).unwrap();
+        let delta = 0.02;
+        let eps = threshold * lod.tool_bounding_radius_m();
+        let mut exact = ContactSet::new();
+        let s0 = lod.query(&pose, &QueryParams::new(delta, 0.0).unwrap(), &mut exact).unwrap();
+        let (d0, _) = min_distance_and_max_depth(&exact);
+        prop_assume!(d0 > eps && d0 < delta - eps);
+        let mut coarse = ContactSet::new();
+        let st = lod.query(&pose, &QueryParams::new(delta, threshold).unwrap(), &mut coarse).unwrap();
+        prop_assert!(st.node_pairs_tested <= s0.node_pairs_tested);
+        let (dt, _) = min_distance_and_max_depth(&coarse);
+        prop_assert!((dt - d0).abs() <= eps + 1e-12, "exact {d0}, coarse {dt}, eps {eps}");
+        for c in coarse.iter() {
+            prop_assert!(c.depth_m >= -delta);
+        }
+    }
+}
+
+#[test]
+fn coarse_thresholds_test_fewer_pairs() {
+    let tool = bumpy_sphere(3, 0.03, 0.02, 3);
+    let obstacle = bumpy_sphere(3, 0.04, 0.02, 5);
+    let pose = Pose::from_position(Vec3::new(0.0, 0.0, 0.069));
+    let mut lod = LodBackend::new(&tool, &[(obstacle, Pose::identity())]).unwrap();
+    let mut out = ContactSet::new();
+    let mut tested = Vec::new();
+    for threshold in [0.0, 0.004, 0.01, 0.025, 0.05] {
+        let st = lod
+            .query(
+                &pose,
+                &QueryParams::new(0.003, threshold).unwrap(),
+                &mut out,
+            )
+            .unwrap();
+        assert!(!out.is_empty());
+        tested.push(st.node_pairs_tested);
+    }
+    assert!(tested.windows(2).all(|w| w[1] <= w[0]), "{tested:?}");
+    assert!(tested[4] < tested[0], "{tested:?}");
+}
+
+#[test]
+fn broad_phase_culls_far_tools() {
+    let (tool, obstacles) = scene(4);
+    let mut lod = LodBackend::new(&tool, &obstacles).unwrap();
+    let mut out = ContactSet::new();
+    let params = QueryParams::new(0.001, 0.0).unwrap();
+    let st = lod
+        .query(
+            &Pose::from_position(Vec3::new(1.0, 0.0, 0.0)),
+            &params,
+            &mut out,
+        )
+        .unwrap();
+    assert!(!st.broad_phase_hit);
+    assert_eq!(st.node_pairs_tested, 0);
+    assert!(out.is_empty());
+    let st = lod.query(&Pose::identity(), &params, &mut out).unwrap();
+    assert!(st.broad_phase_hit && st.node_pairs_tested > 0 && !out.is_empty());
+}
+
+#[test]
+fn queries_do_not_allocate_after_warm_up() {
+    let (tool, obstacles) = scene(9);
+    let mut lod = LodBackend::new(&tool, &obstacles).unwrap();
+    let cap0 = lod.scratch_capacity();
+    let mut out = ContactSet::new();
+    let mut rng = Lcg(77);
+    let poses: Vec<Pose> = (0..40).map(|_| random_pose(&mut rng, 0.06)).collect();
+    for round in 0..2 {
+        for (k, pose) in poses.iter().enumerate() {
+            let threshold = [0.0, 0.01, 0.05][k % 3];
+            lod.query(pose, &QueryParams::new(0.005, threshold).unwrap(), &mut out)
+                .unwrap();
+        }
+        // The traversal stack is reserved at its proven bound and never grows.
+        assert_eq!(lod.scratch_capacity(), cap0, "round {round}");
+    }
+    let cap = out.capacity();
+    for pose in &poses {
+        lod.query(pose, &QueryParams::new(0.005, 0.0).unwrap(), &mut out)
+            .unwrap();
+        assert_eq!(out.capacity(), cap);
+    }
+}
+
+#[test]
+fn bad_inputs_give_typed_errors() {
+    let (tool, obstacles) = scene(1);
+    let nan_pose = Pose {
+        position: Vec3::new(Real::NAN, 0.0, 0.0),
+        orientation: UnitQuaternion::identity(),
+    };
+    assert!(matches!(
+        LodBackend::new(&tool, &[(obstacles[0].0.clone(), nan_pose)]),
+        Err(LodError::NonFinitePose {
+            what: "obstacle pose"
+        })
+    ));
+    assert!(matches!(
+        ReferenceBackend::new(&tool, &[(obstacles[0].0.clone(), nan_pose)]),
+        Err(LodError::NonFinitePose { .. })
+    ));
+    let mut lod = LodBackend::new(&tool, &obstacles).unwrap();
+    let mut out = ContactSet::new();
+    let ok = QueryParams::new(0.001, 0.0).unwrap();
+    assert!(matches!(
+        lod.query(&nan_pose, &ok, &mut out),
+        Err(LodError::NonFinitePose { what: "tool pose" })
+    ));
+    let bad_delta = QueryParams {
+        delta_m: -1.0,
+        error_threshold: 0.0,
+    };
+    assert!(matches!(
+        lod.query(&Pose::identity(), &bad_delta, &mut out),
+        Err(LodError::BadParams {
+            what: "delta_m",
+            ..
+        })
+    ));
+    let bad_eps = QueryParams {
+        delta_m: 0.001,
+        error_threshold: Real::NAN,
+    };
+    assert!(matches!(
+        lod.query(&Pose::identity(), &bad_eps, &mut out),
+        Err(LodError::BadParams {
+            what: "error_threshold",
+            ..
+        })
+    ));
+}
+
+#[test]
+fn normals_point_out_of_the_tool() {
+    // A small cube resting 1 mm above a large one: every contact normal points down (-z).
+    let tool = cuboid(Vec3::new(0.01, 0.01, 0.01));
+    let floor = cuboid(Vec3::new(0.1, 0.1, 0.01));
+    let mut lod = LodBackend::new(
+        &tool,
+        &[(floor, Pose::from_position(Vec3::new(0.0, 0.0, -0.021)))],
+    )
+    .unwrap();
+    let mut out = ContactSet::new();
+    for threshold in [0.0, 0.05] {
+        lod.query(
+            &Pose::identity(),
+            &QueryParams::new(0.002, threshold).unwrap(),
+            &mut out,
+        )
+        .unwrap();
+        assert!(!out.is_empty());
+        for c in out.iter() {
+            assert!((c.n + Vec3::z()).norm() < 1e-9, "{c:?}");
+            assert!((c.depth_m + 0.001).abs() < 1e-12);
+        }
+    }
+    // Sunk 0.5 mm: depth 0.5 mm, still along -z.
+    lod.query(
+        &Pose::from_position(Vec3::new(0.0, 0.0, -0.0015)),
+        &QueryParams::new(0.002, 0.0).unwrap(),
+        &mut out,
+    )
+    .unwrap();
+    let deepest = out
+        .iter()
+        .map(|c| c.depth_m)
+        .fold(Real::NEG_INFINITY, Real::max);
+    assert!((deepest - 0.0005).abs() < 1e-12, "{deepest}");
+    let _ = triangle_normal;
+}

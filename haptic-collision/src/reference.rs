@@ -1,0 +1,106 @@
+//! A brute-force reference back-end: every tool triangle against every obstacle triangle, with
+//! the same exact primitive ([`crate::geometry::triangle_pair`]) and the same contact output as
+//! [`crate::lod::LodBackend`] at error threshold 0. Quadratic in the triangle counts: for tests
+//! on small meshes only.
+
+use haptic_core::{CollisionBackend, ContactSet, Pose, QueryParams, QueryStats, Real, Vec3};
+
+use crate::geometry::{triangle_normal, triangle_pair};
+use crate::lod::LodError;
+use crate::lod::query::Frames;
+use crate::mesh::TriMesh;
+
+/// Triangles of one mesh with their unit normals (mesh frame).
+#[derive(Debug, Clone)]
+struct Soup {
+    tris: Vec<[Vec3; 3]>,
+    normals: Vec<Vec3>,
+}
+
+impl Soup {
+    fn of(mesh: &TriMesh) -> Self {
+        let tris: Vec<[Vec3; 3]> = (0..mesh.triangles().len())
+            .map(|t| mesh.triangle(t))
+            .collect();
+        let normals = tris
+            .iter()
+            .map(|t| triangle_normal(t).unwrap_or_else(Vec3::z))
+            .collect();
+        Self { tris, normals }
+    }
+}
+
+/// All-triangle-pairs collision detection (see the module docs). Ignores the error threshold.
+#[derive(Debug, Clone)]
+pub struct ReferenceBackend {
+    tool: Soup,
+    radius_m: Real,
+    obstacles: Vec<(Soup, Pose)>,
+}
+
+impl ReferenceBackend {
+    /// The tool (body frame) and static obstacles (placed at their poses).
+    ///
+    /// # Errors
+    /// [`LodError::NonFinitePose`] for a non-finite obstacle pose.
+    pub fn new(tool: &TriMesh, obstacles: &[(TriMesh, Pose)]) -> Result<Self, LodError> {
+        if obstacles.iter().any(|(_, p)| !p.is_finite()) {
+            return Err(LodError::NonFinitePose {
+                what: "obstacle pose",
+            });
+        }
+        Ok(Self {
+            tool: Soup::of(tool),
+            radius_m: tool
+                .vertices()
+                .iter()
+                .map(|v| v.norm())
+                .fold(0.0, Real::max),
+            obstacles: obstacles.iter().map(|(m, p)| (Soup::of(m), *p)).collect(),
+        })
+    }
+}
+
+impl CollisionBackend for ReferenceBackend {
+    type Error = LodError;
+
+    fn name(&self) -> &str {
+        "reference"
+    }
+
+    fn tool_bounding_radius_m(&self) -> Real {
+        self.radius_m
+    }
+
+    fn query(
+        &mut self,
+        tool_pose: &Pose,
+        params: &QueryParams,
+        out: &mut ContactSet,
+    ) -> Result<QueryStats, LodError> {
+        out.clear();
+        crate::lod::check_params(params)?;
+        if !tool_pose.is_finite() {
+            return Err(LodError::NonFinitePose { what: "tool pose" });
+        }
+        let mut stats = QueryStats {
+            broad_phase_hit: true,
+            ..QueryStats::default()
+        };
+        for (obs, pose) in &self.obstacles {
+            let frames = Frames::new(tool_pose, pose);
+            for (ta, (tri_a, n_a)) in self.tool.tris.iter().zip(&self.tool.normals).enumerate() {
+                let a = tri_a.map(|v| frames.point(&v));
+                let na = frames.rot * n_a;
+                for (tb, (b, nb)) in obs.tris.iter().zip(&obs.normals).enumerate() {
+                    stats.primitive_pairs_tested += 1;
+                    let pc = triangle_pair(&a, &na, b, nb);
+                    if pc.depth >= -params.delta_m {
+                        frames.emit(&pc, ta as u32, tb as u32, out)?;
+                    }
+                }
+            }
+        }
+        Ok(stats)
+    }
+}
