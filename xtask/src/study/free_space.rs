@@ -42,6 +42,9 @@ const MAX_DEVIATION_M: Real = 0.1;
 const MAX_ANGLE_RAD: Real = std::f64::consts::FRAC_PI_2;
 const ENERGY_GROWTH_LIMIT: Real = 10.0;
 const ENERGY_SPLIT_S: Real = 2.0;
+/// Angular dampings (N m s/rad) of the sensitivity sweep; 3e-3 is the default, 1.9e-2 the value
+/// at which `h b_θ / I_min` reaches forward Euler's bound 2 for a 100 g spoon.
+const ANGULAR_DAMPING_SENSITIVITY: [Real; 4] = [1e-3, 3e-3, 1e-2, 1.9e-2];
 
 /// The trajectory file, relative to the repository root.
 fn trajectory_path() -> PathBuf {
@@ -381,6 +384,7 @@ fn coupling_energy(
 fn simulate(
     kind: IntegratorKind,
     shape: &SpoonShape,
+    params: &CouplingParams,
     mass_kg: Real,
     traj: &[DeviceState],
     keep_trace: bool,
@@ -394,7 +398,7 @@ fn simulate(
         position: d0.pose.position - d0.pose.orientation * r_c,
         orientation: d0.pose.orientation,
     });
-    let coupling = VirtualCoupling::grasping(CouplingParams::default(), &tool, &d0)?;
+    let coupling = VirtualCoupling::grasping(*params, &tool, &d0)?;
     let mut forces = HapticForces::new(coupling);
     let mut integ = kind.boxed();
     let mut res = RunResult {
@@ -552,7 +556,7 @@ pub fn run(args: &crate::OutArgs) -> anyhow::Result<()> {
         let mut step_us = Vec::new();
         let mut force_curve = Vec::new();
         for &m in &masses {
-            let r = simulate(kind, &shape, m, &traj, false)?;
+            let r = simulate(kind, &shape, &CouplingParams::default(), m, &traj, false)?;
             flags.push((m, r.stable));
             step_us.push(r.mean_step_us);
             if r.stable {
@@ -587,6 +591,38 @@ pub fn run(args: &crate::OutArgs) -> anyhow::Result<()> {
             }),
         );
     }
+    // Sensitivity: the explicit methods' thresholds against the angular damping b_θ, all else
+    // equal (the paper does not give its damping).
+    let mut sensitivity = Vec::new();
+    for b_theta in ANGULAR_DAMPING_SENSITIVITY {
+        let params = CouplingParams {
+            angular_damping_nms_per_rad: b_theta,
+            ..CouplingParams::default()
+        };
+        let mut entry = serde_json::Map::new();
+        entry.insert("angular_damping_nms_per_rad".to_owned(), json!(b_theta));
+        let mut line = format!("  b_θ = {b_theta:.1e} N m s/rad:");
+        for kind in IntegratorKind::ALL {
+            let mut flags = Vec::new();
+            for &m in &masses {
+                flags.push((m, simulate(kind, &shape, &params, m, &traj, false)?.stable));
+            }
+            let min = min_stable_mass(&flags);
+            entry.insert(kind.name().to_owned(), json!({ "min_stable_mass_kg": min }));
+            let _ = write!(
+                line,
+                " {} {}",
+                kind.name(),
+                min.map_or("none".to_owned(), |m| format!("{:.1} g", m * 1e3))
+            );
+        }
+        println!("{line}");
+        sensitivity.push(Value::Object(entry));
+    }
+    report.insert(
+        "angular_damping_sensitivity".to_owned(),
+        Value::Array(sensitivity),
+    );
     let params = CouplingParams::default();
     report.insert(
         "setup".to_owned(),
@@ -642,7 +678,7 @@ pub fn run(args: &crate::OutArgs) -> anyhow::Result<()> {
     let mut dev_series = Vec::new();
     let mut force_series = Vec::new();
     for (kind, m, label) in figure {
-        let r = simulate(kind, &shape, m, &traj, true)?;
+        let r = simulate(kind, &shape, &CouplingParams::default(), m, &traj, true)?;
         println!(
             "{label}: {} (rms deviation {:.2} mm, rms force {:.3} N)",
             if r.stable { "stable" } else { "unstable" },
