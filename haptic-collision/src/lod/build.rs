@@ -14,6 +14,7 @@
 use std::time::Instant;
 
 use haptic_core::{Real, Vec3};
+use rayon::prelude::*;
 
 use super::MAX_PIECE_VERTICES;
 use crate::geometry::{point_polygon_distance, triangle_normal};
@@ -87,14 +88,6 @@ impl Default for Poly2 {
 }
 
 impl Poly2 {
-    fn from_slice(p: &[[Real; 2]]) -> Self {
-        let mut out = Self::default();
-        for v in p {
-            out.push(*v);
-        }
-        out
-    }
-
     fn push(&mut self, p: [Real; 2]) {
         if self.len < POLY2_CAP {
             self.pts[self.len] = p;
@@ -199,45 +192,75 @@ impl Hierarchy {
                 todo.push((lo, m, None, level + 1));
             }
         }
-        let mut piece: Vec<Vec3> = Vec::with_capacity(nodes.len() * 4);
-        let mut scratch = Scratch::default();
-        // Pieces bottom-up: a parent's deviation bound uses its children's pieces.
-        let mut piece_at: Vec<(u32, u32)> = vec![(0, 0); nodes.len()];
-        let mut local: Vec<Vec3> = Vec::with_capacity(MAX_PIECE_VERTICES);
-        for index in (0..nodes.len()).rev() {
-            let (lo, hi) = ranges[index];
-            let node_tris = &perm[lo as usize..hi as usize];
-            local.clear();
-            let mut node = nodes[index];
-            if node.is_leaf() {
-                let t = &tris[node.triangle as usize];
-                fill_bounds(&mut node, node_tris, &tris);
-                node.normal = triangle_normal(t).unwrap_or_else(Vec3::z);
-                node.plane_point = t[0];
-                node.half_thickness = 0.0;
-                node.deviation = 0.0;
-                local.extend_from_slice(t);
-            } else {
-                fill_bounds(&mut node, node_tris, &tris);
-                let children = [index + 1, node.right as usize];
-                let child_info: [(Node, &[Vec3]); 2] = children.map(|c| {
-                    let (s, l) = piece_at[c];
-                    (nodes[c], &piece[s as usize..(s + l) as usize])
-                });
-                fill_piece(
-                    &mut node,
-                    node_tris,
-                    &tris,
-                    &child_info,
-                    &mut scratch,
-                    &mut local,
-                );
+        // Pass 1 (any order, in parallel): bounds, plane, slab, piece and the surface → piece
+        // deviation.
+        type Piece = ([Vec3; MAX_PIECE_VERTICES], usize);
+        let pass1: Vec<(Node, Piece)> = (0..nodes.len())
+            .into_par_iter()
+            .map_init(
+                || (Scratch::default(), Vec::with_capacity(MAX_PIECE_VERTICES)),
+                |(scratch, local): &mut (Scratch, Vec<Vec3>), index| {
+                    let (lo, hi) = ranges[index];
+                    let node_tris = &perm[lo as usize..hi as usize];
+                    local.clear();
+                    let mut node = nodes[index];
+                    fill_bounds(&mut node, node_tris, &tris);
+                    if node.is_leaf() {
+                        let t = &tris[node.triangle as usize];
+                        node.normal = triangle_normal(t).unwrap_or_else(Vec3::z);
+                        node.plane_point = t[0];
+                        node.half_thickness = 0.0;
+                        node.deviation = 0.0;
+                        local.extend_from_slice(t);
+                    } else {
+                        fill_piece(&mut node, node_tris, &tris, scratch, local);
+                    }
+                    let mut verts = [Vec3::zeros(); MAX_PIECE_VERTICES];
+                    verts[..local.len()].copy_from_slice(local);
+                    (node, (verts, local.len()))
+                },
+            )
+            .collect();
+        let (mut nodes, pieces): (Vec<Node>, Vec<Piece>) = pass1.into_iter().unzip();
+        let t_pass1 = start.elapsed().as_secs_f64();
+        // Pass 2, smallest subtrees first: the piece → surface side of the deviation, bounded
+        // through the pieces of smaller nearby nodes (whose deviations are then final). Nodes of
+        // equal size never use each other, so each size is done in parallel.
+        let count = |i: usize| ranges[i].1 - ranges[i].0;
+        let mut order: Vec<usize> = (0..nodes.len()).filter(|&i| !nodes[i].is_leaf()).collect();
+        order.sort_by_key(|&i| count(i));
+        let mut first = 0;
+        while first < order.len() {
+            let size = count(order[first]);
+            let end = first + order[first..].partition_point(|&i| count(i) == size);
+            let done: Vec<(usize, Real)> = order[first..end]
+                .par_iter()
+                .map_init(
+                    || (Vec::new(), Vec::new()),
+                    |(cands, walk): &mut (Vec<usize>, Vec<usize>), &index| {
+                        (
+                            index,
+                            final_deviation(index, &nodes, &pieces, &count, cands, walk),
+                        )
+                    },
+                )
+                .collect();
+            for (index, deviation) in done {
+                nodes[index].deviation = deviation;
             }
-            piece_at[index] = (piece.len() as u32, local.len() as u32);
+            first = end;
+        }
+        if std::env::var("LOD_TIMING").is_ok() {
+            eprintln!(
+                "pass1 {t_pass1:.3} s, total {:.3} s",
+                start.elapsed().as_secs_f64()
+            );
+        }
+        let mut piece: Vec<Vec3> = Vec::with_capacity(pieces.iter().map(|p| p.1).sum());
+        for (node, (verts, len)) in nodes.iter_mut().zip(&pieces) {
             node.piece_start = piece.len() as u32;
-            node.piece_len = local.len() as u32;
-            piece.extend_from_slice(&local);
-            nodes[index] = node;
+            node.piece_len = *len as u32;
+            piece.extend_from_slice(&verts[..*len]);
         }
         let radius_about_origin_m = mesh
             .vertices()
@@ -399,7 +422,6 @@ fn fill_piece(
     node: &mut Node,
     node_tris: &[u32],
     tris: &[[Vec3; 3]],
-    children: &[(Node, &[Vec3]); 2],
     scratch: &mut Scratch,
     local: &mut Vec<Vec3>,
 ) {
@@ -470,91 +492,184 @@ fn fill_piece(
         let d2 = dist_to_polygon_2d(*p, &hull);
         s_out = s_out.max((dh * dh + d2 * d2).sqrt());
     }
-    // Piece → surface. For q on the piece and either child c, dist(q, S) <= dist(q, piece_c) + s_c
-    // and dist(q, S) <= |q − centre_c| + r_c. Each of these four terms is convex in q, so on a
-    // convex region its maximum is at a vertex, and min over terms of (max over the vertices)
-    // bounds the surface distance on the region. The polygon is cut into convex regions along the
-    // children's pieces projected on its plane: the parts above each child piece (where that
-    // child's term is about the height gap) and the uncovered rest.
-    let terms = |p: &[Real; 2]| -> [Real; 4] {
-        let q = node.plane_point + u * p[0] + w * p[1];
-        let mut t = [Real::INFINITY; 4];
-        for (k, (c, poly)) in children.iter().enumerate() {
-            t[2 * k] = (q - c.center).norm() + c.radius;
-            if c.deviation.is_finite() && !poly.is_empty() {
-                t[2 * k + 1] = point_polygon_distance(&q, poly, &c.normal) + c.deviation;
-            }
+    node.deviation = s_out.min(cap);
+    scratch.hull = hull;
+}
+
+/// The final (two-sided) deviation of inner node `index`: its surface → piece part, already in
+/// `nodes`, and the piece → surface part bounded through nearby smaller nodes.
+fn final_deviation(
+    index: usize,
+    nodes: &[Node],
+    pieces: &[([Vec3; MAX_PIECE_VERTICES], usize)],
+    count: &(dyn Fn(usize) -> u32 + Sync),
+    cands: &mut Vec<usize>,
+    walk: &mut Vec<usize>,
+) -> Real {
+    let node = nodes[index];
+    if !node.deviation.is_finite() {
+        return node.deviation;
+    }
+    cands.clear();
+    walk.clear();
+    walk.push(0);
+    while let Some(m) = walk.pop() {
+        let nm = &nodes[m];
+        let reach = nm.radius + node.radius;
+        if (nm.center - node.center).norm_squared() > reach * reach {
+            continue;
         }
-        t
-    };
-    let region_bound = |r: &Poly2| -> Real {
-        if r.len == 0 {
-            return 0.0;
+        if count(m) < count(index) {
+            cands.push(m);
+        } else if !nm.is_leaf() {
+            walk.push(m + 1);
+            walk.push(nm.right as usize);
         }
-        let mut worst = [Real::NEG_INFINITY; 4];
-        for p in r.as_slice() {
-            let t = terms(p);
-            for k in 0..4 {
-                worst[k] = worst[k].max(t[k]);
-            }
-        }
-        worst.iter().copied().fold(Real::INFINITY, Real::min)
-    };
+    }
+    if cands.len() > MAX_CANDIDATES {
+        // The nearest ones (any subset keeps the bound rigorous, only looser).
+        let gap = |m: usize| (nodes[m].center - node.center).norm() - nodes[m].radius;
+        cands.sort_by(|&a, &b| gap(a).total_cmp(&gap(b)));
+        cands.truncate(MAX_CANDIDATES);
+    }
+    let s_in = piece_to_surface(&node, &pieces[index], cands, nodes, pieces);
+    let cap = (1.0 + std::f64::consts::SQRT_2) * node.radius;
+    node.deviation.max(s_in).min(cap)
+}
+
+/// Most neighbouring nodes used to bound a piece's distance to the surface.
+const MAX_CANDIDATES: usize = 10;
+
+/// Most convex regions tracked while cutting a piece along its neighbours' pieces.
+const MAX_REGIONS: usize = 32;
+
+/// Upper bound on `sup_{q ∈ piece} dist(q, S)`, `S` the whole mesh surface.
+///
+/// For any node `m`, `dist(q, S) <= dist(q, piece_m) + s_m` (its two-sided deviation) and
+/// `dist(q, S) <= |q − centre_m| + r_m`. Both are convex in `q`, so over a convex region their
+/// maximum is at a vertex. The piece (in 2-D, in its plane) is cut along the projections of the
+/// candidates' pieces, best-aligned first: each region above candidate `m` is bounded with `m`'s
+/// term, and what no candidate covers with the smallest of all terms' vertex maxima.
+fn piece_to_surface(
+    node: &Node,
+    own: &([Vec3; MAX_PIECE_VERTICES], usize),
+    cands: &[usize],
+    nodes: &[Node],
+    pieces: &[([Vec3; MAX_PIECE_VERTICES], usize)],
+) -> Real {
+    let n = node.normal;
+    let (u, w) = plane_basis(&n);
+    let o = node.plane_point;
     let to2 = |v: &Vec3| -> [Real; 2] {
         let d = v - o;
         [u.dot(&d), w.dot(&d)]
     };
-    let q_poly = Poly2::from_slice(&hull);
-    let projected: [Option<Poly2>; 2] = [0, 1].map(|k| {
-        let (c, poly) = &children[k];
-        if !c.deviation.is_finite() || poly.len() < 3 {
-            return None;
+    let to3 = |p: &[Real; 2]| o + u * p[0] + w * p[1];
+    let term = |m: usize, q: &Vec3| -> Real {
+        let nm = &nodes[m];
+        let mut t = (q - nm.center).norm() + nm.radius;
+        if nm.deviation.is_finite() && pieces[m].1 >= 3 {
+            let (verts, len) = &pieces[m];
+            t = t.min(point_polygon_distance(q, &verts[..*len], &nm.normal) + nm.deviation);
+        }
+        t
+    };
+    let mut q_poly = Poly2::default();
+    for v in &own.0[..own.1] {
+        q_poly.push(to2(v));
+    }
+    // Candidates with a usable projected piece, best first (closest to this plane).
+    let mut usable: Vec<(Real, usize, Poly2)> = Vec::with_capacity(cands.len());
+    for &m in cands {
+        let nm = &nodes[m];
+        let (verts, len) = &pieces[m];
+        if !nm.deviation.is_finite() || *len < 3 {
+            continue;
         }
         let mut p = Poly2::default();
-        for v in poly.iter() {
+        let mut off: Real = 0.0;
+        for v in &verts[..*len] {
             p.push(to2(v));
+            off = off.max(n.dot(&(v - o)).abs());
         }
         let area = p.signed_area();
         if area.abs() <= 1e-12 * node.radius * node.radius {
-            return None;
+            continue;
         }
         if area < 0.0 {
             p.reverse();
         }
-        Some(p)
-    });
-    let mut s_in: Real = 0.0;
-    // Above each child piece.
-    for a in projected.iter().flatten() {
-        let mut r = q_poly;
-        for i in 0..a.len {
-            r = r.clip(&a.pts[i], &a.pts[(i + 1) % a.len]);
-        }
-        s_in = s_in.max(region_bound(&r));
+        usable.push((off + nm.deviation, m, p));
     }
-    // The rest: Q minus A, minus B, as disjoint convex pieces.
-    let mut rest: Vec<Poly2> = vec![q_poly];
-    for a in projected.iter().flatten() {
-        let mut next = Vec::with_capacity(rest.len() * a.len);
-        for piece in &rest {
-            let mut inside = *piece;
-            for i in 0..a.len {
-                let (p0, p1) = (a.pts[i], a.pts[(i + 1) % a.len]);
-                let outside = inside.clip(&p1, &p0);
-                if outside.len >= 3 {
-                    next.push(outside);
+    usable.sort_by(|a, b| a.0.total_cmp(&b.0));
+    // min over candidates of (max over the region's vertices of the candidate's term), below
+    // `start`.
+    let best_term = |verts: &[[Real; 2]], start: Real| -> Real {
+        let mut best = start;
+        for &m in cands {
+            let mut worst: Real = 0.0;
+            for v in verts {
+                worst = worst.max(term(m, &to3(v)));
+                if worst >= best {
+                    break;
                 }
-                inside = inside.clip(&p0, &p1);
+            }
+            best = best.min(worst);
+        }
+        best
+    };
+    let mut s_in: Real = 0.0;
+    let mut rest: Vec<Poly2> = vec![q_poly];
+    let mut next: Vec<Poly2> = Vec::new();
+    for (_, m, p) in &usable {
+        if rest.is_empty() {
+            break;
+        }
+        next.clear();
+        for piece in &rest {
+            // The part above candidate m.
+            let mut inside = *piece;
+            for i in 0..p.len {
+                inside = inside.clip(&p.pts[i], &p.pts[(i + 1) % p.len]);
                 if inside.len < 3 {
                     break;
                 }
             }
+            if inside.len < 3 {
+                next.push(*piece);
+                continue;
+            }
+            let mut b: Real = 0.0;
+            for v in inside.as_slice() {
+                b = b.max(term(*m, &to3(v)));
+            }
+            if b > s_in {
+                // Slivers left by rounding can land on a poor candidate: try every term.
+                b = b.min(best_term(inside.as_slice(), b));
+                s_in = s_in.max(b);
+            }
+            // The rest of the piece, as disjoint convex parts.
+            let mut remaining = *piece;
+            for i in 0..p.len {
+                let (p0, p1) = (p.pts[i], p.pts[(i + 1) % p.len]);
+                let outside = remaining.clip(&p1, &p0);
+                if outside.len >= 3 && outside.signed_area() > 0.0 {
+                    next.push(outside);
+                }
+                remaining = remaining.clip(&p0, &p1);
+                if remaining.len < 3 {
+                    break;
+                }
+            }
         }
-        rest = next;
+        std::mem::swap(&mut rest, &mut next);
+        if rest.len() > MAX_REGIONS {
+            break;
+        }
     }
+    // Whatever is left: the best single term per region.
     for r in &rest {
-        s_in = s_in.max(region_bound(r));
+        s_in = s_in.max(best_term(r.as_slice(), Real::INFINITY));
     }
-    node.deviation = s_out.max(s_in).min(cap);
-    scratch.hull = hull;
+    s_in
 }

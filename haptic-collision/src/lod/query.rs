@@ -1,10 +1,10 @@
 //! The query: both hierarchies walked together (tool placed in the obstacle's mesh frame).
 
-use haptic_core::{Contact, ContactSet, Mat3, Pose, QueryStats, Real, Vec3};
+use haptic_core::{Contact, ContactSet, Mat3, NO_FEATURE, Pose, QueryStats, Real, Vec3};
 
 use super::build::{Hierarchy, Node};
 use super::{LodError, MAX_PIECE_VERTICES};
-use crate::geometry::{PairContact, convex_polygon_pair};
+use crate::geometry::{PairContact, closest_point_on_polygon, convex_polygon_pair};
 
 /// The rigid map from the tool's body frame to one obstacle's mesh frame, and what is needed to
 /// write contacts in the world frame.
@@ -98,6 +98,68 @@ fn place_piece(
     (piece.len(), frames.rot * a.normal)
 }
 
+/// Whether every vertex of `poly` lies more than `delta` from the plane `(n, p0)`, all on the same
+/// side (then the polygon is farther than `delta` from anything in that plane).
+#[inline]
+fn beyond_plane(poly: &[Vec3], n: &Vec3, p0: &Vec3, delta: Real) -> bool {
+    let (mut lo, mut hi) = (Real::INFINITY, Real::NEG_INFINITY);
+    for v in poly {
+        let h = n.dot(&(v - p0));
+        lo = lo.min(h);
+        hi = hi.max(h);
+    }
+    lo > delta || hi < -delta
+}
+
+/// The extra contacts of a coarse (piece–piece) pair: the regions within `δ` are sampled at the
+/// tool piece's vertices and centroid, each against the obstacle piece, so that a coarse pair
+/// reports a spread of depths like the triangle pairs it stands for, not only its closest
+/// approach. Outside: `depth = −distance` to the obstacle piece, `n` along the closest-point
+/// direction. When the pieces intersect, a sample below the obstacle piece (inside its prism)
+/// gets `depth = −height` along the obstacle normal and `n = −n_b`.
+fn emit_samples(
+    a: &[Vec3],
+    b: &[Vec3],
+    nb: &Vec3,
+    pc: &PairContact,
+    delta: Real,
+    frames: &Frames,
+    out: &mut ContactSet,
+) -> Result<(), LodError> {
+    let centroid = a.iter().sum::<Vec3>() / a.len() as Real;
+    for x in a.iter().chain(std::iter::once(&centroid)) {
+        let c = closest_point_on_polygon(x, b, nb);
+        let d = (c - x).norm();
+        let height = nb.dot(&(x - b[0]));
+        let sample = if pc.distance == 0.0
+            && height < 0.0
+            && (c - (x - nb * height)).norm_squared() <= 1e-30
+        {
+            PairContact {
+                p_a: *x,
+                p_b: x - nb * height,
+                n: -nb,
+                depth: -height,
+                distance: 0.0,
+            }
+        } else if d > 0.0 {
+            PairContact {
+                p_a: *x,
+                p_b: c,
+                n: (c - x) / d,
+                depth: -d,
+                distance: d,
+            }
+        } else {
+            continue;
+        };
+        if sample.depth >= -delta {
+            frames.emit(&sample, NO_FEATURE, NO_FEATURE, out)?;
+        }
+    }
+    Ok(())
+}
+
 /// What one traversal needs besides the hierarchies.
 pub(crate) struct Walk<'a> {
     pub frames: &'a Frames,
@@ -141,14 +203,21 @@ pub(crate) fn collide(
             let (len, na) = place_piece(tool, a, frames, &mut buf);
             let pb = obs.piece_of(b);
             stats.primitive_pairs_tested += 1;
+            // Piece-level cull: one piece entirely beyond δ on one side of the other's plane.
+            if beyond_plane(&buf[..len], &b.normal, &b.plane_point, walk.delta_m)
+                || beyond_plane(pb, &na, &pa, walk.delta_m)
+            {
+                continue;
+            }
             let pc = convex_polygon_pair(&buf[..len], &na, pb, &b.normal);
-            if pc.depth >= -walk.delta_m {
-                let (fa, fb) = if leaf_a && leaf_b {
-                    (a.triangle, b.triangle)
-                } else {
-                    (haptic_core::NO_FEATURE, haptic_core::NO_FEATURE)
-                };
-                frames.emit(&pc, fa, fb, out)?;
+            if pc.depth < -walk.delta_m {
+                continue;
+            }
+            if leaf_a && leaf_b {
+                frames.emit(&pc, a.triangle, b.triangle, out)?;
+            } else {
+                frames.emit(&pc, NO_FEATURE, NO_FEATURE, out)?;
+                emit_samples(&buf[..len], pb, &b.normal, &pc, walk.delta_m, frames, out)?;
             }
             continue;
         }

@@ -112,15 +112,14 @@ fn hierarchy_bounds_and_deviation_are_true_upper_bounds() {
                     "node {i}: surface point {d} from piece, s = {s}"
                 );
             }
-            // Piece → surface (fan samples of the polygon).
+            // Piece → surface, the whole mesh (fan samples of the polygon).
             let mut qs = Vec::new();
             for k in 1..piece.len() - 1 {
                 samples(&[piece[0], piece[k], piece[k + 1]], 8, &mut qs);
             }
             for q in &qs {
-                let d = tris
-                    .iter()
-                    .map(|&t| (closest_point_on_triangle(q, &m.triangle(t as usize)) - q).norm())
+                let d = (0..m.triangles().len())
+                    .map(|t| (closest_point_on_triangle(q, &m.triangle(t)) - q).norm())
                     .fold(Real::INFINITY, Real::min);
                 assert!(
                     d <= s + 1e-12,
@@ -401,4 +400,150 @@ fn normals_point_out_of_the_tool() {
         .fold(Real::NEG_INFINITY, Real::max);
     assert!((deepest - 0.0005).abs() < 1e-12, "{deepest}");
     let _ = triangle_normal;
+}
+
+#[test]
+#[ignore = "diagnostic"]
+fn zz_jaw_deviation_stats() {
+    let bytes = std::fs::read("/work/shared/meshes/jaw_upper_openfulljaw_p26.stl").unwrap();
+    let n = u32::from_le_bytes(bytes[80..84].try_into().unwrap()) as usize;
+    let mut idx = std::collections::HashMap::new();
+    let mut v = Vec::new();
+    let mut t = Vec::new();
+    for k in 0..n {
+        let mut tri = [0u32; 3];
+        for c in 0..3 {
+            let o = 84 + 50 * k + 12 + 12 * c;
+            let key: [u32; 3] = [0, 1, 2]
+                .map(|j| u32::from_le_bytes(bytes[o + 4 * j..o + 4 * j + 4].try_into().unwrap()));
+            tri[c] = *idx.entry(key).or_insert_with(|| {
+                v.push(
+                    Vec3::new(
+                        f32::from_bits(key[0]) as Real,
+                        f32::from_bits(key[1]) as Real,
+                        f32::from_bits(key[2]) as Real,
+                    ) * 1e-3,
+                );
+                (v.len() - 1) as u32
+            });
+        }
+        t.push(tri);
+    }
+    let m = TriMesh::new(v, t, crate::mesh::DegeneratePolicy::Drop)
+        .unwrap()
+        .0;
+    let h = Hierarchy::build(&m);
+    let mut counts = vec![0usize; h.node_count()];
+    for i in (0..h.node_count()).rev() {
+        let nd = h.nodes[i];
+        counts[i] = if nd.is_leaf() {
+            1
+        } else {
+            counts[i + 1] + counts[nd.right as usize]
+        };
+    }
+    for size in [2usize, 4, 8, 16, 32, 64, 128, 256, 512] {
+        let mut s: Vec<(Real, Real, Real)> = (0..h.node_count())
+            .filter(|&i| counts[i] >= size && counts[i] < 2 * size)
+            .map(|i| {
+                (
+                    h.nodes[i].deviation * 1e3,
+                    h.nodes[i].half_thickness * 1e3,
+                    h.nodes[i].radius * 1e3,
+                )
+            })
+            .collect();
+        s.sort_by(|a, b| a.0.total_cmp(&b.0));
+        let med = s[s.len() / 2];
+        let mut ratio: Vec<Real> = s.iter().map(|x| x.0 / x.1.max(1e-9)).collect();
+        ratio.sort_by(|a, b| a.total_cmp(b));
+        println!(
+            "size {size}: n {} median s {:.3} mm (t {:.3}, r {:.3}), s/t median {:.2} p90 s {:.3}",
+            s.len(),
+            med.0,
+            med.1,
+            med.2,
+            ratio[ratio.len() / 2],
+            s[s.len() * 9 / 10].0
+        );
+    }
+}
+
+#[test]
+#[ignore = "diagnostic"]
+fn zz_jaw_bad_nodes() {
+    let bytes = std::fs::read("/work/shared/meshes/jaw_upper_openfulljaw_p26.stl").unwrap();
+    let n = u32::from_le_bytes(bytes[80..84].try_into().unwrap()) as usize;
+    let mut idx = std::collections::HashMap::new();
+    let mut v = Vec::new();
+    let mut t = Vec::new();
+    for k in 0..n {
+        let mut tri = [0u32; 3];
+        for c in 0..3 {
+            let o = 84 + 50 * k + 12 + 12 * c;
+            let key: [u32; 3] = [0, 1, 2]
+                .map(|j| u32::from_le_bytes(bytes[o + 4 * j..o + 4 * j + 4].try_into().unwrap()));
+            tri[c] = *idx.entry(key).or_insert_with(|| {
+                v.push(
+                    Vec3::new(
+                        f32::from_bits(key[0]) as Real,
+                        f32::from_bits(key[1]) as Real,
+                        f32::from_bits(key[2]) as Real,
+                    ) * 1e-3,
+                );
+                (v.len() - 1) as u32
+            });
+        }
+        t.push(tri);
+    }
+    let m = TriMesh::new(v, t, crate::mesh::DegeneratePolicy::Drop)
+        .unwrap()
+        .0;
+    let h = Hierarchy::build(&m);
+    let mut shown = 0;
+    for i in 0..h.node_count() {
+        let node = h.nodes[i];
+        let mut tris = Vec::new();
+        triangles_below(&h, i, &mut tris);
+        if tris.len() != 2 || node.deviation < 5.0 * node.half_thickness + 1e-5 {
+            continue;
+        }
+        let piece = h.piece_of(&node);
+        let mut qs = Vec::new();
+        for k in 1..piece.len() - 1 {
+            samples(&[piece[0], piece[k], piece[k + 1]], 10, &mut qs);
+        }
+        let near: Vec<usize> = (0..m.triangles().len())
+            .filter(|&t| (m.triangle(t)[0] - node.center).norm() < 0.004)
+            .collect();
+        let sup = qs
+            .iter()
+            .map(|q| {
+                near.iter()
+                    .map(|&t| (closest_point_on_triangle(q, &m.triangle(t)) - q).norm())
+                    .fold(Real::INFINITY, Real::min)
+            })
+            .fold(0.0, Real::max);
+        let own = qs
+            .iter()
+            .map(|q| {
+                tris.iter()
+                    .map(|&t| (closest_point_on_triangle(q, &m.triangle(t as usize)) - q).norm())
+                    .fold(Real::INFINITY, Real::min)
+            })
+            .fold(0.0, Real::max);
+        println!(
+            "node {i}: s {:.3} t {:.3} r {:.3} sampled sup(all) {:.3} sup(own) {:.3} piece {}",
+            node.deviation * 1e3,
+            node.half_thickness * 1e3,
+            node.radius * 1e3,
+            sup * 1e3,
+            own * 1e3,
+            piece.len()
+        );
+        shown += 1;
+        if shown > 12 {
+            break;
+        }
+    }
 }
