@@ -222,7 +222,6 @@ impl Hierarchy {
             )
             .collect();
         let (mut nodes, pieces): (Vec<Node>, Vec<Piece>) = pass1.into_iter().unzip();
-        let t_pass1 = start.elapsed().as_secs_f64();
         // Pass 2, smallest subtrees first: the piece → surface side of the deviation, bounded
         // through the pieces of smaller nearby nodes (whose deviations are then final). Nodes of
         // equal size never use each other, so each size is done in parallel.
@@ -249,12 +248,6 @@ impl Hierarchy {
                 nodes[index].deviation = deviation;
             }
             first = end;
-        }
-        if std::env::var("LOD_TIMING").is_ok() {
-            eprintln!(
-                "pass1 {t_pass1:.3} s, total {:.3} s",
-                start.elapsed().as_secs_f64()
-            );
         }
         let mut piece: Vec<Vec3> = Vec::with_capacity(pieces.iter().map(|p| p.1).sum());
         for (node, (verts, len)) in nodes.iter_mut().zip(&pieces) {

@@ -6,13 +6,16 @@
 //! bounding-volume hierarchy (spheres and slabs) and a level-of-detail hierarchy: every node
 //! carries a simplified convex piece of the surface below it (a planar convex polygon, a leaf's
 //! piece being its triangle) and the piece's surface deviation `s`, an upper bound on the
-//! two-sided Hausdorff distance between piece and triangles.
+//! two-sided Hausdorff distance between piece and surface (every point of the node's triangles is
+//! within `s` of the piece, and every point of the piece within `s` of the mesh surface).
 //!
 //! A query places the tool, runs a broad phase (root spheres inflated by `δ`), then walks the
 //! tool's hierarchy against each obstacle's. A node pair is culled when its bounding volumes are
 //! farther apart than `δ`; it stops when `s_a + s_b <= ε`, with `ε = error_threshold ×`
-//! [`LodBackend::tool_bounding_radius_m`], and reports one contact from the two pieces; otherwise
-//! the node with the larger deviation is split. At `error_threshold = 0` the walk descends to
+//! [`LodBackend::tool_bounding_radius_m`], and reports contacts from the two pieces (their exact
+//! closest approach, plus samples at the tool piece's vertices and centroid); otherwise the node
+//! with the larger deviation is split. When the exact surfaces are apart by `D` with
+//! `ε < D < δ − ε`, the reported closest approach is within `ε` of `D`. At `error_threshold = 0` the walk descends to
 //! triangle pairs and the contacts are exact (the same as [`crate::reference::ReferenceBackend`]).
 //!
 //! Contact convention (haptic-core [`Contact`](haptic_core::Contact)): `p_a` on the tool, `p_b` on

@@ -131,13 +131,12 @@ fn emit_samples(
         let c = closest_point_on_polygon(x, b, nb);
         let d = (c - x).norm();
         let height = nb.dot(&(x - b[0]));
-        let sample = if pc.distance == 0.0
-            && height < 0.0
-            && (c - (x - nb * height)).norm_squared() <= 1e-30
-        {
+        // Inside: the pieces intersect and x lies below the obstacle piece, within its prism
+        // (then the closest point is exactly x's projection).
+        let sample = if pc.distance == 0.0 && height < 0.0 && c == x - nb * height {
             PairContact {
                 p_a: *x,
-                p_b: x - nb * height,
+                p_b: c,
                 n: -nb,
                 depth: -height,
                 distance: 0.0,
