@@ -254,6 +254,11 @@ pub fn convex_polygon_pair(a: &[Vec3], na: &Vec3, b: &[Vec3], nb: &Vec3) -> Pair
         let mut pa = a[0];
         let mut pb = b[0];
         for v in a {
+            // The plane distance is a lower bound on the distance to the polygon.
+            let h = nb.dot(&(v - b[0]));
+            if h * h >= best_d2 {
+                continue;
+            }
             let c = closest_point_on_polygon(v, b, nb);
             let d2 = (c - v).norm_squared();
             if d2 < best_d2 {
@@ -263,6 +268,10 @@ pub fn convex_polygon_pair(a: &[Vec3], na: &Vec3, b: &[Vec3], nb: &Vec3) -> Pair
             }
         }
         for v in b {
+            let h = na.dot(&(v - a[0]));
+            if h * h >= best_d2 {
+                continue;
+            }
             let c = closest_point_on_polygon(v, a, na);
             let d2 = (c - v).norm_squared();
             if d2 < best_d2 {
@@ -272,9 +281,17 @@ pub fn convex_polygon_pair(a: &[Vec3], na: &Vec3, b: &[Vec3], nb: &Vec3) -> Pair
             }
         }
         for i in 0..ma {
+            let (a0, a1) = (&a[i], &a[(i + 1) % ma]);
+            let mid_a = (a0 + a1) * 0.5;
+            let half_a = 0.5 * (a1 - a0).norm();
             for j in 0..mb {
-                let (c1, c2) =
-                    closest_points_segments(&a[i], &a[(i + 1) % ma], &b[j], &b[(j + 1) % mb]);
+                let (b0, b1) = (&b[j], &b[(j + 1) % mb]);
+                // Cheap lower bound: the edges lie in balls about their midpoints.
+                let lower = (mid_a - (b0 + b1) * 0.5).norm() - half_a - 0.5 * (b1 - b0).norm();
+                if lower > 0.0 && lower * lower >= best_d2 {
+                    continue;
+                }
+                let (c1, c2) = closest_points_segments(a0, a1, b0, b1);
                 let d2 = (c2 - c1).norm_squared();
                 if d2 < best_d2 {
                     best_d2 = d2;

@@ -205,7 +205,12 @@ fn lod_jaws() {
         .collect();
     let mut out = ContactSet::new();
     let mut exact_wrench = Vec::new();
+    // LOD_ONLY=0.025 times one threshold alone (for profiling).
+    let only: Option<Real> = std::env::var("LOD_ONLY").ok().and_then(|s| s.parse().ok());
     for threshold in [0.0, 0.004, 0.01, 0.025, 0.05] {
+        if only.is_some_and(|t| t != threshold) {
+            continue;
+        }
         let params = QueryParams::new(delta, threshold).unwrap();
         let mut times = Vec::new();
         let mut pairs = 0u64;
@@ -226,7 +231,7 @@ fn lod_jaws() {
             let wr = clustered_wrench(&out, delta, &pose.position);
             if threshold == 0.0 {
                 exact_wrench.push((wr, out.max_depth_m().unwrap_or(-delta)));
-            } else {
+            } else if k < exact_wrench.len() {
                 errs.push(rel_err(&wr, &exact_wrench[k].0, 0.03));
                 maxdepth_err = maxdepth_err
                     .max((out.max_depth_m().unwrap_or(-delta) - exact_wrench[k].1).abs());
@@ -246,6 +251,17 @@ fn lod_jaws() {
             errs.last().copied().unwrap_or(0.0),
             maxdepth_err,
         );
+    }
+    // LOD_REPEAT=n: n more passes of queries alone (for profiling).
+    let repeat: usize = std::env::var("LOD_REPEAT")
+        .ok()
+        .and_then(|s| s.parse().ok())
+        .unwrap_or(0);
+    let params = QueryParams::new(delta, only.unwrap_or(0.025)).unwrap();
+    for _ in 0..repeat {
+        for pose in &poses {
+            lod.query(pose, &params, &mut out).unwrap();
+        }
     }
     // A far pose costs only the broad phase.
     let far = Pose::from_position(c + Vec3::new(1.0, 0.0, 0.0));

@@ -68,19 +68,21 @@ impl Frames {
     }
 }
 
-/// Whether a tool node (already in the obstacle frame: centre `ca`, normal `na`, plane point `pa`)
-/// and an obstacle node are farther apart than `delta` (conservative: spheres and slabs).
+/// Whether a tool node (centre `ca` already in the obstacle frame) and an obstacle node are farther apart than `delta` (conservative: spheres and slabs).
 #[inline]
-fn culled(a: &Node, ca: &Vec3, na: &Vec3, pa: &Vec3, b: &Node, delta: Real) -> bool {
+fn culled(a: &Node, ca: &Vec3, b: &Node, frames: &Frames, delta: Real) -> bool {
     let d = ca - b.center;
     let reach = a.radius + b.radius + delta;
     if d.norm_squared() > reach * reach {
         return true;
     }
-    if na.dot(&(b.center - pa)).abs() - a.half_thickness - b.radius > delta {
+    if b.normal.dot(&(ca - b.plane_point)).abs() - b.half_thickness - a.radius > delta {
         return true;
     }
-    b.normal.dot(&(ca - b.plane_point)).abs() - b.half_thickness - a.radius > delta
+    // The tool's slab, in the obstacle frame.
+    let na = frames.rot * a.normal;
+    let pa = frames.point(&a.plane_point);
+    na.dot(&(b.center - pa)).abs() - a.half_thickness - b.radius > delta
 }
 
 /// The tool's piece of `a` in the obstacle frame, into `buf`; returns its length and normal.
@@ -109,6 +111,26 @@ fn beyond_plane(poly: &[Vec3], n: &Vec3, p0: &Vec3, delta: Real) -> bool {
         hi = hi.max(h);
     }
     lo > delta || hi < -delta
+}
+
+/// Whether the two polygons' projections on the line through their centroids are more than
+/// `delta` apart (then so are the polygons).
+#[inline]
+fn apart_along_centroids(a: &[Vec3], b: &[Vec3], delta: Real) -> bool {
+    let ca = a.iter().sum::<Vec3>() / a.len() as Real;
+    let cb = b.iter().sum::<Vec3>() / b.len() as Real;
+    let d = cb - ca;
+    let len = d.norm();
+    if len.is_nan() || len <= 0.0 {
+        return false;
+    }
+    let u = d / len;
+    let a_max = a
+        .iter()
+        .map(|v| u.dot(v))
+        .fold(Real::NEG_INFINITY, Real::max);
+    let b_min = b.iter().map(|v| u.dot(v)).fold(Real::INFINITY, Real::min);
+    b_min - a_max > delta
 }
 
 /// The extra contacts of a coarse (piece–piece) pair: the regions within `δ` are sampled at the
@@ -189,9 +211,7 @@ pub(crate) fn collide(
         let b = &obs.nodes[ib as usize];
         stats.node_pairs_tested += 1;
         let ca = frames.point(&a.center);
-        let na = frames.rot * a.normal;
-        let pa = frames.point(&a.plane_point);
-        if culled(a, &ca, &na, &pa, b, walk.delta_m) {
+        if culled(a, &ca, b, frames, walk.delta_m) {
             continue;
         }
         let (leaf_a, leaf_b) = (a.is_leaf(), b.is_leaf());
@@ -200,14 +220,16 @@ pub(crate) fn collide(
             || (walk.epsilon_m > 0.0 && a.deviation + b.deviation <= walk.epsilon_m);
         if stop {
             let (len, na) = place_piece(tool, a, frames, &mut buf);
+            let pa = frames.point(&a.plane_point);
             let pb = obs.piece_of(b);
-            stats.primitive_pairs_tested += 1;
             // Piece-level cull: one piece entirely beyond δ on one side of the other's plane.
             if beyond_plane(&buf[..len], &b.normal, &b.plane_point, walk.delta_m)
                 || beyond_plane(pb, &na, &pa, walk.delta_m)
+                || apart_along_centroids(&buf[..len], pb, walk.delta_m)
             {
                 continue;
             }
+            stats.primitive_pairs_tested += 1;
             let pc = convex_polygon_pair(&buf[..len], &na, pb, &b.normal);
             if pc.depth < -walk.delta_m {
                 continue;
