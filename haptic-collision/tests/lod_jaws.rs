@@ -217,6 +217,7 @@ fn lod_jaws() {
         let mut prims = 0u64;
         let mut ncontacts = 0usize;
         let mut errs = Vec::new();
+        let mut fratio: Vec<Real> = Vec::new();
         let mut maxdepth_err: Real = 0.0;
         for (k, pose) in poses.iter().enumerate() {
             if std::env::var("LOD_VERBOSE").is_ok() && k > 0 {
@@ -233,12 +234,18 @@ fn lod_jaws() {
                 exact_wrench.push((wr, out.max_depth_m().unwrap_or(-delta)));
             } else if k < exact_wrench.len() {
                 errs.push(rel_err(&wr, &exact_wrench[k].0, 0.03));
+                let f = |w: &[Real; 6]| Vec3::new(w[0], w[1], w[2]).norm();
+                fratio.push(f(&wr) / f(&exact_wrench[k].0).max(1e-12));
                 maxdepth_err = maxdepth_err
                     .max((out.max_depth_m().unwrap_or(-delta) - exact_wrench[k].1).abs());
             }
         }
         times.sort_by(|a, b| a.total_cmp(b));
         errs.sort_by(|a, b| a.total_cmp(b));
+        fratio.sort_by(|a, b| a.total_cmp(b));
+        if !fratio.is_empty() {
+            println!("  |F| / |F0|: median {:.3}", fratio[fratio.len() / 2]);
+        }
         let n = poses.len() as Real;
         println!(
             "threshold {threshold:.3}: median {:.1} us, p99 {:.1} us, node pairs {:.0}, primitive pairs {:.0}, contacts {:.1}, wrench err median {:.3} max {:.3}, max-depth err {:.2e} m",

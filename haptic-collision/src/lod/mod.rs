@@ -29,6 +29,8 @@ pub(crate) mod query;
 
 use std::time::Instant;
 
+use rayon::prelude::*;
+
 use haptic_core::{CollisionBackend, ContactSet, CoreError, Pose, QueryParams, QueryStats, Real};
 
 pub use build::Hierarchy;
@@ -137,11 +139,16 @@ impl LodBackend {
                 what: "obstacle pose",
             });
         }
-        let tool = Hierarchy::build(tool);
-        let obstacles: Vec<(Hierarchy, Pose)> = obstacles
-            .iter()
-            .map(|(m, p)| (Hierarchy::build(m), *p))
-            .collect();
+        // Both sides at once (each build is itself parallel; joining fills idle threads).
+        let (tool, obstacles) = rayon::join(
+            || Hierarchy::build(tool),
+            || {
+                obstacles
+                    .par_iter()
+                    .map(|(m, p)| (Hierarchy::build(m), *p))
+                    .collect::<Vec<(Hierarchy, Pose)>>()
+            },
+        );
         // Every pop pushes at most two pairs and each split goes one level down one tree, so the
         // stack never holds more than height_a + height_b + 1 pairs: reserving that up front means
         // a query never allocates.
