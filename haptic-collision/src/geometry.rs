@@ -466,11 +466,21 @@ mod tests {
         }
 
         #[test]
-        fn sat_depth_is_the_shortest_separation(a in arb_tri(), b in arb_tri(), dir in arb_point()) {
+        fn sat_depth_is_the_shortest_separation(
+            a in arb_tri(),
+            b0 in arb_tri(),
+            (u, v) in (0.0..0.5f64, 0.0..0.5f64),
+            dir in arb_point(),
+        ) {
+            // Place b so that its centroid lies on a point of a: the two intersect.
+            let on_a = a[0] + (a[1] - a[0]) * u + (a[2] - a[0]) * v;
+            let shift0 = on_a - (b0[0] + b0[1] + b0[2]) / 3.0;
+            let b = [b0[0] + shift0, b0[1] + shift0, b0[2] + shift0];
             let na = triangle_normal(&a).unwrap();
             let nb = triangle_normal(&b).unwrap();
             let c = triangle_pair(&a, &na, &b, &nb);
-            prop_assume!(c.distance == 0.0 && dir.norm() > 1e-3);
+            prop_assert_eq!(c.distance, 0.0);
+            prop_assume!(dir.norm() > 1e-3);
             // No translation of b shorter than the depth separates the triangles.
             let u = dir.normalize();
             let shift = u * (c.depth * (1.0 - 1e-6) - 1e-12).max(0.0);

@@ -243,9 +243,6 @@ fn lod_jaws() {
         times.sort_by(|a, b| a.total_cmp(b));
         errs.sort_by(|a, b| a.total_cmp(b));
         fratio.sort_by(|a, b| a.total_cmp(b));
-        if !fratio.is_empty() {
-            println!("  |F| / |F0|: median {:.3}", fratio[fratio.len() / 2]);
-        }
         let n = poses.len() as Real;
         println!(
             "threshold {threshold:.3}: median {:.1} us, p99 {:.1} us, node pairs {:.0}, primitive pairs {:.0}, contacts {:.1}, wrench err median {:.3} max {:.3}, max-depth err {:.2e} m",
@@ -258,6 +255,9 @@ fn lod_jaws() {
             errs.last().copied().unwrap_or(0.0),
             maxdepth_err,
         );
+        if !fratio.is_empty() {
+            println!("  |F| / |F0|: median {:.3}", fratio[fratio.len() / 2]);
+        }
     }
     // LOD_REPEAT=n: n more passes of queries alone (for profiling).
     let repeat: usize = std::env::var("LOD_REPEAT")
