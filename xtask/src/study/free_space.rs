@@ -656,6 +656,42 @@ pub fn run(args: &crate::OutArgs) -> anyhow::Result<()> {
             ),
         }),
     );
+    // Fig. 3: BE 1 g, RK4 70 g, FE 100 g.
+    let figure = [
+        (IntegratorKind::BackwardEuler, 1e-3, "backward Euler, 1 g"),
+        (IntegratorKind::Rk4, 70e-3, "RK4, 70 g"),
+        (IntegratorKind::ForwardEuler, 100e-3, "forward Euler, 100 g"),
+    ];
+    let mut dev_series = Vec::new();
+    let mut force_series = Vec::new();
+    let mut figure_runs = Vec::new();
+    for (kind, m, label) in figure {
+        let r = simulate(kind, &shape, &CouplingParams::default(), m, &traj, true)?;
+        println!(
+            "{label}: {} (rms deviation {:.2} mm, rms force {:.3} N)",
+            if r.stable { "stable" } else { "unstable" },
+            r.rms_deviation_m * 1e3,
+            r.rms_force_n
+        );
+        figure_runs.push(json!({
+            "integrator": kind.name(),
+            "mass_kg": m,
+            "stable": r.stable,
+            "rms_deviation_m": r.rms_deviation_m,
+            "max_deviation_m": r.max_deviation_m,
+            "rms_force_n": r.rms_force_n,
+            "max_force_n": r.max_force_n,
+        }));
+        dev_series.push(Series::new(
+            label,
+            r.trace.iter().map(|p| (p.0, p.1)).collect(),
+        ));
+        force_series.push(Series::new(
+            label,
+            r.trace.iter().map(|p| (p.0, p.2)).collect(),
+        ));
+    }
+    report.insert("figure_runs".to_owned(), Value::Array(figure_runs));
     common::write_json(&dir.join("free-space.json"), &Value::Object(report))?;
     line_chart(
         &dir.join("free-space-sweep.svg"),
@@ -669,31 +705,6 @@ pub fn run(args: &crate::OutArgs) -> anyhow::Result<()> {
         &sweep_series,
     )?;
 
-    // Fig. 3: BE 1 g, RK4 70 g, FE 100 g.
-    let figure = [
-        (IntegratorKind::BackwardEuler, 1e-3, "backward Euler, 1 g"),
-        (IntegratorKind::Rk4, 70e-3, "RK4, 70 g"),
-        (IntegratorKind::ForwardEuler, 100e-3, "forward Euler, 100 g"),
-    ];
-    let mut dev_series = Vec::new();
-    let mut force_series = Vec::new();
-    for (kind, m, label) in figure {
-        let r = simulate(kind, &shape, &CouplingParams::default(), m, &traj, true)?;
-        println!(
-            "{label}: {} (rms deviation {:.2} mm, rms force {:.3} N)",
-            if r.stable { "stable" } else { "unstable" },
-            r.rms_deviation_m * 1e3,
-            r.rms_force_n
-        );
-        dev_series.push(Series::new(
-            label,
-            r.trace.iter().map(|p| (p.0, p.1)).collect(),
-        ));
-        force_series.push(Series::new(
-            label,
-            r.trace.iter().map(|p| (p.0, p.2)).collect(),
-        ));
-    }
     line_chart(
         &dir.join("free-space-deviation.svg"),
         &Chart {
