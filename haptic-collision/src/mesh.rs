@@ -70,7 +70,10 @@ impl TriMesh {
         if triangles.is_empty() || vertices.is_empty() {
             return Err(MeshError::Empty);
         }
-        if let Some(index) = vertices.iter().position(|v| !v.iter().all(|c| c.is_finite())) {
+        if let Some(index) = vertices
+            .iter()
+            .position(|v| !v.iter().all(|c| c.is_finite()))
+        {
             return Err(MeshError::NonFiniteVertex { index });
         }
         for (t, tri) in triangles.iter().enumerate() {
@@ -90,7 +93,8 @@ impl TriMesh {
             tri[0] == tri[1]
                 || tri[1] == tri[2]
                 || tri[0] == tri[2]
-                || e1.cross(&e2).norm() <= DEGENERATE_REL_TOL * (e1.norm_squared() + e2.norm_squared())
+                || e1.cross(&e2).norm()
+                    <= DEGENERATE_REL_TOL * (e1.norm_squared() + e2.norm_squared())
         };
         let count = triangles.iter().filter(|t| degenerate(t)).count();
         let triangles = if count == 0 {
@@ -101,7 +105,9 @@ impl TriMesh {
                     let first = triangles.iter().position(degenerate).unwrap_or(0);
                     return Err(MeshError::DegenerateTriangles { count, first });
                 }
-                DegeneratePolicy::Drop => triangles.into_iter().filter(|t| !degenerate(t)).collect(),
+                DegeneratePolicy::Drop => {
+                    triangles.into_iter().filter(|t| !degenerate(t)).collect()
+                }
             }
         };
         if triangles.is_empty() {

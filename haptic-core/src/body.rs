@@ -33,7 +33,9 @@ impl RigidBody {
             return Err(CoreError::NonFinite { what: "mass" });
         }
         if inertia_body.iter().any(|v| !v.is_finite()) {
-            return Err(CoreError::NonFinite { what: "inertia tensor" });
+            return Err(CoreError::NonFinite {
+                what: "inertia tensor",
+            });
         }
         if mass_kg <= 0.0 {
             return Err(CoreError::NonPositiveMass { mass_kg });
@@ -170,7 +172,9 @@ mod tests {
         i[(0, 1)] = Real::NAN;
         assert!(matches!(
             RigidBody::new(1.0, i),
-            Err(CoreError::NonFinite { what: "inertia tensor" })
+            Err(CoreError::NonFinite {
+                what: "inertia tensor"
+            })
         ));
         assert!(matches!(
             RigidBody::new(1.0, diag(1.0, Real::INFINITY, 1.0)),
@@ -218,7 +222,10 @@ mod tests {
     fn sphere_rejects_bad_radius() {
         assert!(matches!(
             RigidBody::sphere(1.0, 0.0),
-            Err(CoreError::OutOfRange { what: "radius_m", .. })
+            Err(CoreError::OutOfRange {
+                what: "radius_m",
+                ..
+            })
         ));
     }
 

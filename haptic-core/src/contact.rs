@@ -71,19 +71,29 @@ impl Contact {
     pub fn validate(&self) -> Result<(), CoreError> {
         let finite = |v: &Vec3| v.iter().all(|c| c.is_finite());
         if !finite(&self.p_a) {
-            return Err(CoreError::NonFinite { what: "contact p_a" });
+            return Err(CoreError::NonFinite {
+                what: "contact p_a",
+            });
         }
         if !finite(&self.r_a) {
-            return Err(CoreError::NonFinite { what: "contact r_a" });
+            return Err(CoreError::NonFinite {
+                what: "contact r_a",
+            });
         }
         if !finite(&self.p_b) {
-            return Err(CoreError::NonFinite { what: "contact p_b" });
+            return Err(CoreError::NonFinite {
+                what: "contact p_b",
+            });
         }
         if !finite(&self.n) {
-            return Err(CoreError::NonFinite { what: "contact normal" });
+            return Err(CoreError::NonFinite {
+                what: "contact normal",
+            });
         }
         if !self.depth_m.is_finite() {
-            return Err(CoreError::NonFinite { what: "contact depth" });
+            return Err(CoreError::NonFinite {
+                what: "contact depth",
+            });
         }
         let norm = self.n.norm();
         if (norm - 1.0).abs() > UNIT_NORMAL_TOL {
@@ -195,23 +205,33 @@ mod tests {
         let nan = Vec3::new(Real::NAN, 0.0, 0.0);
         assert!(matches!(
             Contact::new(nan, z, z, Vec3::z(), 0.0),
-            Err(CoreError::NonFinite { what: "contact p_a" })
+            Err(CoreError::NonFinite {
+                what: "contact p_a"
+            })
         ));
         assert!(matches!(
             Contact::new(z, nan, z, Vec3::z(), 0.0),
-            Err(CoreError::NonFinite { what: "contact r_a" })
+            Err(CoreError::NonFinite {
+                what: "contact r_a"
+            })
         ));
         assert!(matches!(
             Contact::new(z, z, nan, Vec3::z(), 0.0),
-            Err(CoreError::NonFinite { what: "contact p_b" })
+            Err(CoreError::NonFinite {
+                what: "contact p_b"
+            })
         ));
         assert!(matches!(
             Contact::new(z, z, z, nan, 0.0),
-            Err(CoreError::NonFinite { what: "contact normal" })
+            Err(CoreError::NonFinite {
+                what: "contact normal"
+            })
         ));
         assert!(matches!(
             Contact::new(z, z, z, Vec3::z(), Real::INFINITY),
-            Err(CoreError::NonFinite { what: "contact depth" })
+            Err(CoreError::NonFinite {
+                what: "contact depth"
+            })
         ));
         assert!(matches!(
             Contact::new(z, z, z, z, 0.0),

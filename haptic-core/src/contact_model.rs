@@ -56,7 +56,10 @@ pub trait ContactModel {
         out.wrench0 = w;
         out.jacobian = jac;
         out.contacts = contacts.len();
-        out.max_depth_m = contacts.iter().map(|c| c.depth_m).fold(Real::NEG_INFINITY, Real::max);
+        out.max_depth_m = contacts
+            .iter()
+            .map(|c| c.depth_m)
+            .fold(Real::NEG_INFINITY, Real::max);
         Ok(())
     }
 }

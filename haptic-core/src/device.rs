@@ -41,7 +41,11 @@ impl DeviceLimits {
                 return Err(CoreError::NonFinite { what });
             }
         }
-        if workspace_min_m.iter().chain(workspace_max_m.iter()).any(|v| !v.is_finite()) {
+        if workspace_min_m
+            .iter()
+            .chain(workspace_max_m.iter())
+            .any(|v| !v.is_finite())
+        {
             return Err(CoreError::NonFinite { what: "workspace" });
         }
         if max_force_n < 0.0 {
@@ -91,12 +95,20 @@ impl DeviceLimits {
         let mut clamped = false;
         let f = w.force.norm();
         if f > self.max_force_n {
-            out.force = if f > 0.0 { w.force * (self.max_force_n / f) } else { Vec3::zeros() };
+            out.force = if f > 0.0 {
+                w.force * (self.max_force_n / f)
+            } else {
+                Vec3::zeros()
+            };
             clamped = true;
         }
         let t = w.torque.norm();
         if t > self.max_torque_nm {
-            out.torque = if t > 0.0 { w.torque * (self.max_torque_nm / t) } else { Vec3::zeros() };
+            out.torque = if t > 0.0 {
+                w.torque * (self.max_torque_nm / t)
+            } else {
+                Vec3::zeros()
+            };
             clamped = true;
         }
         (out, clamped)
@@ -209,23 +221,37 @@ mod tests {
         let hi = Vec3::repeat(0.1);
         assert!(matches!(
             DeviceLimits::new(-1.0, 0.5, lo, hi, 1000.0),
-            Err(CoreError::OutOfRange { what: "max_force_n", .. })
+            Err(CoreError::OutOfRange {
+                what: "max_force_n",
+                ..
+            })
         ));
         assert!(matches!(
             DeviceLimits::new(1.0, -0.5, lo, hi, 1000.0),
-            Err(CoreError::OutOfRange { what: "max_torque_nm", .. })
+            Err(CoreError::OutOfRange {
+                what: "max_torque_nm",
+                ..
+            })
         ));
         assert!(matches!(
             DeviceLimits::new(1.0, 0.5, lo, hi, 0.0),
-            Err(CoreError::OutOfRange { what: "nominal_rate_hz", .. })
+            Err(CoreError::OutOfRange {
+                what: "nominal_rate_hz",
+                ..
+            })
         ));
         assert!(matches!(
             DeviceLimits::new(Real::NAN, 0.5, lo, hi, 1000.0),
-            Err(CoreError::NonFinite { what: "max_force_n" })
+            Err(CoreError::NonFinite {
+                what: "max_force_n"
+            })
         ));
         assert!(matches!(
             DeviceLimits::new(1.0, 0.5, hi, lo, 1000.0),
-            Err(CoreError::OutOfRange { what: "workspace", .. })
+            Err(CoreError::OutOfRange {
+                what: "workspace",
+                ..
+            })
         ));
         assert!(matches!(
             DeviceLimits::new(1.0, 0.5, lo, Vec3::new(Real::NAN, 0.0, 0.0), 1000.0),
@@ -238,7 +264,10 @@ mod tests {
         let l = limits();
         let (w, c) = l.saturate(&Wrench::new(Vec3::new(10.0, 0.0, 0.0), Vec3::zeros()));
         assert!(c && (w.force.norm() - 5.0).abs() < 1e-12 && l.admits(&w));
-        let (w, c) = l.saturate(&Wrench::new(Vec3::new(1.0, 0.0, 0.0), Vec3::new(0.0, 0.0, 0.1)));
+        let (w, c) = l.saturate(&Wrench::new(
+            Vec3::new(1.0, 0.0, 0.0),
+            Vec3::new(0.0, 0.0, 0.1),
+        ));
         assert!(!c && w.force.x == 1.0);
         let (w, c) = l.saturate(&Wrench::new(Vec3::new(Real::NAN, 0.0, 0.0), Vec3::zeros()));
         assert!(c && w == Wrench::zero());

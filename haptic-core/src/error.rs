@@ -27,7 +27,9 @@ pub enum CoreError {
         asymmetry: Real,
     },
     /// An inertia tensor was not positive definite.
-    #[error("inertia tensor is not positive definite (smallest eigenvalue {min_eigenvalue:e} kg m^2)")]
+    #[error(
+        "inertia tensor is not positive definite (smallest eigenvalue {min_eigenvalue:e} kg m^2)"
+    )]
     InertiaNotPositiveDefinite {
         /// Smallest eigenvalue found.
         min_eigenvalue: Real,

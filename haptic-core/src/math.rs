@@ -133,7 +133,8 @@ mod tests {
         let omega = Vec3::new(1.5, -2.0, 0.25);
         let via_q = q_matrix(&q) * omega;
         let via_omega = omega_matrix(&omega) * q;
-        let prod = Quaternion::new(0.0, omega.x, omega.y, omega.z) * Quaternion::new(q[0], q[1], q[2], q[3]);
+        let prod = Quaternion::new(0.0, omega.x, omega.y, omega.z)
+            * Quaternion::new(q[0], q[1], q[2], q[3]);
         let expected = Quat4::new(prod.w, prod.i, prod.j, prod.k);
         assert!((via_q - expected).norm() < 1e-14);
         assert!((via_omega - expected).norm() < 1e-14);

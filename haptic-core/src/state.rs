@@ -121,7 +121,10 @@ impl Twist {
 
     /// Whether every component is finite.
     pub fn is_finite(&self) -> bool {
-        self.linear.iter().chain(self.angular.iter()).all(|c| c.is_finite())
+        self.linear
+            .iter()
+            .chain(self.angular.iter())
+            .all(|c| c.is_finite())
     }
 }
 
@@ -148,7 +151,10 @@ impl Wrench {
 
     /// Whether every component is finite.
     pub fn is_finite(&self) -> bool {
-        self.force.iter().chain(self.torque.iter()).all(|c| c.is_finite())
+        self.force
+            .iter()
+            .chain(self.torque.iter())
+            .all(|c| c.is_finite())
     }
 
     /// As a 6-vector `(F, T)`.
@@ -264,7 +270,9 @@ impl ToolState {
     /// the quaternion part is (nearly) zero and cannot be normalised.
     pub fn from_vector_normalized(y: &StateVector) -> Result<Self, CoreError> {
         if y.iter().any(|v| !v.is_finite()) {
-            return Err(CoreError::NonFinite { what: "state vector" });
+            return Err(CoreError::NonFinite {
+                what: "state vector",
+            });
         }
         let q = Quaternion::new(y[IQ], y[IQ + 1], y[IQ + 2], y[IQ + 3]);
         let norm = q.norm();
@@ -307,7 +315,8 @@ impl ToolState {
 
     /// Kinetic energy `½ P²/m + ½ L·ω` (J).
     pub fn kinetic_energy_j(&self, body: &RigidBody) -> Real {
-        0.5 * self.p.norm_squared() / body.mass_kg() + 0.5 * self.l.dot(&self.angular_velocity(body))
+        0.5 * self.p.norm_squared() / body.mass_kg()
+            + 0.5 * self.l.dot(&self.angular_velocity(body))
     }
 }
 
@@ -398,15 +407,22 @@ mod tests {
     fn pose_rejects_bad_input() {
         assert!(matches!(
             Pose::new(Vec3::new(Real::NAN, 0.0, 0.0), Quaternion::identity()),
-            Err(CoreError::NonFinite { what: "pose position" })
+            Err(CoreError::NonFinite {
+                what: "pose position"
+            })
         ));
         assert!(matches!(
             Pose::new(Vec3::zeros(), Quaternion::new(1.0, 0.1, 0.0, 0.0)),
             Err(CoreError::NonUnitQuaternion { .. })
         ));
         assert!(matches!(
-            Pose::new(Vec3::zeros(), Quaternion::new(Real::INFINITY, 0.0, 0.0, 0.0)),
-            Err(CoreError::NonFinite { what: "pose orientation" })
+            Pose::new(
+                Vec3::zeros(),
+                Quaternion::new(Real::INFINITY, 0.0, 0.0, 0.0)
+            ),
+            Err(CoreError::NonFinite {
+                what: "pose orientation"
+            })
         ));
     }
 
@@ -416,15 +432,21 @@ mod tests {
         let id = Quaternion::identity();
         assert!(matches!(
             ToolState::new(Vec3::new(0.0, Real::NAN, 0.0), id, z, z),
-            Err(CoreError::NonFinite { what: "tool position" })
+            Err(CoreError::NonFinite {
+                what: "tool position"
+            })
         ));
         assert!(matches!(
             ToolState::new(z, id, Vec3::new(Real::INFINITY, 0.0, 0.0), z),
-            Err(CoreError::NonFinite { what: "linear momentum" })
+            Err(CoreError::NonFinite {
+                what: "linear momentum"
+            })
         ));
         assert!(matches!(
             ToolState::new(z, id, z, Vec3::new(0.0, 0.0, Real::NEG_INFINITY)),
-            Err(CoreError::NonFinite { what: "angular momentum" })
+            Err(CoreError::NonFinite {
+                what: "angular momentum"
+            })
         ));
         assert!(matches!(
             ToolState::new(z, Quaternion::new(0.5, 0.0, 0.0, 0.0), z, z),
@@ -480,9 +502,13 @@ mod tests {
             let mut ym = y;
             yp[IQ + c] += h;
             ym[IQ + c] -= h;
-            let fd = (Kinematics::new(&body, &yp).omega - Kinematics::new(&body, &ym).omega) / (2.0 * h);
+            let fd =
+                (Kinematics::new(&body, &yp).omega - Kinematics::new(&body, &ym).omega) / (2.0 * h);
             let an = k.omega_q.column(c).into_owned();
-            assert!((fd - an).norm() <= 1e-6 * an.norm().max(1e-3), "{c}: {fd} vs {an}");
+            assert!(
+                (fd - an).norm() <= 1e-6 * an.norm().max(1e-3),
+                "{c}: {fd} vs {an}"
+            );
         }
     }
 }
