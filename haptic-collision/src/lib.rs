@@ -1,11 +1,37 @@
 //! # haptic-collision
 //!
-//! Mesh loading and collision back-ends (being written).
+//! Tool-against-obstacles collision detection for 6-DOF haptic rendering (Otaduy & Lin 2006,
+//! Section VI-A), behind `haptic_core::CollisionBackend`.
+//!
+//! It owns:
+//! - [`TriMesh`]: validated triangle meshes, loaded from STL (binary and ASCII), OBJ and PLY with
+//!   a unit scale ([`TriMesh::load`], [`LoadOptions`]), and the mass properties of the solid
+//!   they bound ([`TriMesh::mass_properties`]);
+//! - [`LodBackend`]: the native sensation-preserving multiresolution back-end (ref. [9] of the
+//!   paper), exact at error threshold 0;
+//! - `ParryBackend` (cargo feature `parry`, on by default): parry3d-f64's triangle-mesh contact
+//!   manifolds, as a second implementation and a reference; nothing of parry is compiled
+//!   without the feature;
+//! - [`reference::ReferenceBackend`]: all triangle pairs, for tests on small meshes.
+//!
+//! It does not own clustering (`haptic-cluster`), contact forces (`haptic-dynamics`) or the
+//! pipeline (`haptic-runtime`).
+//!
+//! Contact convention (docs/formulation.md): `p_a` on the tool, `r_a` the same point in the
+//! tool's body frame, `p_b` on the obstacle, `n` unit and out of the tool, `depth_m` positive
+//! inside and down to `−δ` when apart. How each back-end measures depth inside an overlap is in
+//! its module docs.
 
 pub mod geometry;
 pub mod lod;
 pub mod mesh;
+#[cfg(feature = "parry")]
+pub mod parry;
 pub mod reference;
 
 pub use lod::LodBackend;
-pub use mesh::{DegeneratePolicy, MeshError, TriMesh};
+pub use mesh::{
+    DegeneratePolicy, LoadOptions, LoadReport, MassProperties, MeshError, MeshFormat, TriMesh,
+};
+#[cfg(feature = "parry")]
+pub use parry::{ParryBackend, ParryError, ParryOptions};

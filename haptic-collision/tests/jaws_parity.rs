@@ -1,0 +1,135 @@
+//! `LodBackend` at threshold 0 against `ParryBackend` on the shared jaws, in 100 poses where the
+//! jaws are apart by less than δ. Runs in release (`cargo test -p haptic-collision --release`);
+//! ignored in debug builds, where it would take minutes.
+#![cfg(feature = "parry")]
+
+use std::collections::BTreeSet;
+use std::path::PathBuf;
+
+use haptic_collision::{LoadOptions, LodBackend, ParryBackend, ParryOptions, TriMesh};
+use haptic_core::{CollisionBackend, ContactSet, Pose, QueryParams, Real, Vec3};
+use nalgebra::UnitQuaternion;
+
+const DELTA: Real = 5e-4;
+/// Below `BAND · δ` the two pair sets must be equal (see the comment in the test).
+const BAND: Real = 0.9;
+
+fn meshes_dir() -> PathBuf {
+    PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../../shared/meshes")
+}
+
+fn min_distance(s: &ContactSet) -> Real {
+    s.iter().map(|c| -c.depth_m).fold(Real::INFINITY, Real::min)
+}
+
+fn pairs(s: &ContactSet, below: Real) -> BTreeSet<(u32, u32)> {
+    s.iter()
+        .filter(|c| -c.depth_m < below)
+        .map(|c| (c.feature_a, c.feature_b))
+        .collect()
+}
+
+#[test]
+#[cfg_attr(debug_assertions, ignore = "slow in debug; runs under --release")]
+fn lod_agrees_with_parry_on_the_jaws() {
+    let dir = meshes_dir();
+    let upper_path = dir.join("jaw_upper_openfulljaw_p26.stl");
+    if !upper_path.exists() {
+        eprintln!("shared jaws not found; skipping");
+        return;
+    }
+    let mm = LoadOptions::with_scale(1e-3);
+    let (upper, _) = TriMesh::load(&upper_path, &mm).unwrap();
+    let (lower, _) = TriMesh::load(dir.join("jaw_lower_openfulljaw_p26.stl"), &mm).unwrap();
+    // Tool body frame at the upper jaw's centre of mass.
+    let com = upper.mass_properties(1000.0).unwrap().centre_of_mass_m;
+    let tool = upper.translated(&-com).unwrap();
+    let obstacles = [(lower, Pose::identity())];
+    let mut lod = LodBackend::new(&tool, &obstacles).unwrap();
+    let mut plain = ParryBackend::with_options(
+        &tool,
+        &obstacles,
+        &ParryOptions {
+            fix_internal_edges: false,
+        },
+    )
+    .unwrap();
+    let mut fixed = ParryBackend::new(&tool, &obstacles).unwrap();
+
+    let exact = QueryParams::new(DELTA, 0.0).unwrap();
+    let wide = QueryParams::new(1e-3, 0.0).unwrap();
+    let (mut a, mut b) = (ContactSet::new(), ContactSet::new());
+    let mut checked = 0;
+    let mut total_pairs = 0;
+    let mut band_misses = 0;
+    for i in 0..100 {
+        // A smooth path over the occlusion: lateral shifts of up to 0.3 mm, tilts of up to
+        // 0.3°; then the lift that puts the closest approach at about δ/2 (distance is
+        // 1-Lipschitz in the lift, so each step lands at or above the target).
+        let s = i as Real / 100.0 * std::f64::consts::TAU;
+        let lateral = Vec3::new(0.3e-3 * s.sin(), 0.3e-3 * (2.0 * s).cos(), 0.0);
+        let orientation = UnitQuaternion::from_scaled_axis(Vec3::new(
+            0.005 * s.cos(),
+            0.005 * (3.0 * s).sin(),
+            0.003 * s.sin(),
+        ));
+        let mut lift = 0.9e-3;
+        let pose_at = |lift: Real| Pose {
+            position: com + lateral + Vec3::new(0.0, 0.0, lift),
+            orientation,
+        };
+        for _ in 0..6 {
+            lod.query(&pose_at(lift), &exact, &mut a).unwrap();
+            let g = min_distance(&a);
+            if g > 0.0 && g < DELTA {
+                break;
+            }
+            lod.query(&pose_at(lift), &wide, &mut a).unwrap();
+            let g = min_distance(&a);
+            assert!(g.is_finite() && g > 0.0, "pose {i}: lift {lift} gives {g}");
+            lift -= g - DELTA / 2.0;
+        }
+        let pose = pose_at(lift);
+        lod.query(&pose, &exact, &mut a).unwrap();
+        let g = min_distance(&a);
+        assert!(g > 0.0 && g < DELTA, "pose {i}: closest approach {g} m");
+
+        // Without FIX_INTERNAL_EDGES parry reports exactly the pairs closer than δ.
+        plain.query(&pose, &exact, &mut b).unwrap();
+        let gp = min_distance(&b);
+        assert!((gp - g).abs() < 1e-6, "pose {i}: lod {g} parry {gp}");
+        // Every pair parry reports is one of LOD's; every pair LOD finds closer than
+        // BAND·δ parry finds too. Between BAND·δ and δ parry misses a few: its GJK distance of
+        // a triangle pair can be tens of micrometres too large (checked by dense sampling: LOD's
+        // distance is the right one), so a pair just inside δ can fall outside for parry.
+        let la_loose = pairs(&a, DELTA + 1e-9);
+        let la_core = pairs(&a, BAND * DELTA);
+        let pb = pairs(&b, DELTA + 1e-9);
+        assert!(
+            la_core.is_subset(&pb) && pb.is_subset(&la_loose),
+            "pose {i}: {} pairs only in lod, {} only in parry",
+            la_core.difference(&pb).count(),
+            pb.difference(&la_loose).count()
+        );
+        band_misses += la_loose.difference(&pb).count();
+        // With it (the default), the same closest approach and a subset of the pairs.
+        fixed.query(&pose, &exact, &mut b).unwrap();
+        assert!((min_distance(&b) - g).abs() < 1e-6);
+        assert!(pairs(&b, DELTA + 1e-9).is_subset(&la_loose));
+        checked += 1;
+        total_pairs += la_loose.len();
+    }
+    assert_eq!(checked, 100);
+    assert!(
+        total_pairs > 1000,
+        "the poses are near contact: {total_pairs} pairs"
+    );
+    // The misses in the band are rare.
+    assert!(
+        band_misses * 100 < total_pairs,
+        "{band_misses} of {total_pairs} pairs missed by parry near δ"
+    );
+    eprintln!(
+        "{total_pairs} pairs in 100 poses; parry missed {band_misses} of them, all beyond {BAND}·δ"
+    );
+}
