@@ -84,8 +84,20 @@ pub const SIMULATED_DEVICES: &[(&str, &str)] = &[
         "plays back a CSV recording made by Recorder, bit for bit",
     ),
     (
-        "ScaledDevice / SaturatingDevice / FaultInjector / Recorder",
-        "wrappers for any device: scaling, clamping, injected faults, recording",
+        "Recorder",
+        "wraps any device: its readings and commands to CSV",
+    ),
+    (
+        "ScaledDevice",
+        "wraps any device: workspace and force scaling (the paper's jaws: 0.4 and 2.5)",
+    ),
+    (
+        "SaturatingDevice",
+        "wraps any device: clamps commands to its limits and counts the clamps",
+    ),
+    (
+        "FaultInjector",
+        "wraps any device: disconnection, NaN readings or a stall, on cue",
     ),
 ];
 
