@@ -1,1 +1,706 @@
-//! haptic-cluster (being written).
+//! # haptic-cluster
+//!
+//! k-means contact clustering by Lloyd's method with temporal coherence (Otaduy & Lin 2006,
+//! Section VI-B, eqs. 28–32, Algorithm VI.1).
+//!
+//! A collision query near a large contact area returns tens to hundreds of contacts. Summing a
+//! penalty spring per contact would make the contact stiffness grow with the number of contacts,
+//! and the haptic loop unstable. The [`Clusterer`] reduces them to at most `K` representatives
+//! (default 5), so the total translational stiffness is bounded by `K · k_c` whatever the
+//! triangle count.
+//!
+//! - Contacts are weighted by depth, `w_i = d_i + δ` (floored at `δ · 1e-3`, so pre-contacts at
+//!   exactly `−δ` keep a small positive weight).
+//! - Lloyd's iterations minimise `E = Σ w_i |p_i − c_k(i)|²` (eq. 28) with weighted centroids
+//!   (eq. 29), until the assignment stops changing or the iteration cap is hit. `E` never
+//!   increases from one iteration to the next.
+//! - Warm start from the previous call: the old clusters with the smallest depth are dropped when
+//!   fewer are wanted; each kept cluster is seeded at the contact closest to its old
+//!   representative (greedy closest pairs); more seeds go to the contacts furthest from the seeds
+//!   chosen so far. A cold start seeds the deepest contact first, then furthest points.
+//! - The representative of a cluster (eqs. 30–32, our choice where the paper is silent):
+//!   `p_a = c_k`, `r_a` the weighted mean of the `r_a`, `n = normalize(Σ w_i n_i)`,
+//!   `d = Σ w_i d_i / Σ w_i`, `p_b = p_a − d n`.
+//! - After warm-up (the largest contact count seen so far), a call allocates nothing.
+//!
+//! It owns only the clustering: contacts come from a `haptic_core::CollisionBackend`, and the
+//! representatives go to a `haptic_core::ContactModel` (the penalty model lives in
+//! `haptic-dynamics`).
+//!
+//! ```
+//! use haptic_cluster::{ClusterParams, Clusterer};
+//! use haptic_core::{Contact, ContactSet, Vec3};
+//!
+//! // Two patches of contacts on the floor, 10 cm apart.
+//! let mut raw = Vec::new();
+//! for i in 0..20 {
+//!     let x = if i % 2 == 0 { 0.0 } else { 0.1 } + 1e-3 * i as f64;
+//!     let p = Vec3::new(x, 0.0, 0.0);
+//!     raw.push(Contact::new(p, p, p, -Vec3::z(), 1e-4).unwrap());
+//! }
+//! let mut clusterer = Clusterer::new(ClusterParams { max_clusters: 2, ..Default::default() }).unwrap();
+//! let mut reps = ContactSet::new();
+//! let stats = clusterer.cluster(&raw, 1e-3, &mut reps).unwrap();
+//! assert_eq!(reps.len(), 2);
+//! assert!(stats.converged);
+//! ```
+
+use haptic_core::{Contact, ContactSet, CoreError, Real, Vec3};
+use thiserror::Error;
+
+/// Parameters of the clustering.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct ClusterParams {
+    /// `K`, the largest number of clusters (the paper used 5). With fewer contacts (or fewer
+    /// distinct contact points) than `K`, there are as many clusters as those.
+    pub max_clusters: usize,
+    /// Cap on Lloyd iterations per call (assignment + centroid update each).
+    pub max_iterations: usize,
+    /// Seed from the previous call's clusters (temporal coherence); `false` always cold-starts.
+    pub warm_start: bool,
+}
+
+impl Default for ClusterParams {
+    /// `K = 5`, at most 16 iterations, warm start on.
+    fn default() -> Self {
+        Self {
+            max_clusters: 5,
+            max_iterations: 16,
+            warm_start: true,
+        }
+    }
+}
+
+/// Bad input to the clustering.
+#[derive(Debug, Clone, Copy, PartialEq, Error)]
+pub enum ClusterError {
+    /// `K = 0` was asked for.
+    #[error("the number of clusters K must be at least 1")]
+    ZeroClusters,
+    /// An iteration cap of 0 was asked for.
+    #[error("the iteration cap must be at least 1")]
+    ZeroIterations,
+    /// `δ` was not finite and positive.
+    #[error("the contact tolerance δ must be finite and > 0, got {delta_m} m")]
+    BadDelta {
+        /// The value given (m).
+        delta_m: Real,
+    },
+    /// A contact had a NaN or infinite field.
+    #[error("contact {index} has a non-finite {what}")]
+    NonFiniteContact {
+        /// Index of the contact in the input.
+        index: usize,
+        /// Which field.
+        what: &'static str,
+    },
+    /// A contact normal was not unit length (a zero normal among them).
+    #[error("contact {index} has a normal of norm {norm}, expected 1")]
+    BadNormal {
+        /// Index of the contact in the input.
+        index: usize,
+        /// The norm found.
+        norm: Real,
+    },
+}
+
+/// What one call did.
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+pub struct ClusterStats {
+    /// Number of clusters produced.
+    pub clusters: usize,
+    /// Lloyd iterations run.
+    pub iterations: usize,
+    /// Whether the assignment stopped changing before the cap.
+    pub converged: bool,
+    /// Whether the call was seeded from the previous one.
+    pub warm: bool,
+    /// Final cost `E` (eq. 28), in kg-free units of `m³` (weight in m times squared distance).
+    pub cost: Real,
+}
+
+/// Weight of a contact, `d + δ`, floored so it stays positive.
+#[inline]
+fn weight(depth_m: Real, delta_m: Real) -> Real {
+    (depth_m + delta_m).max(1e-3 * delta_m)
+}
+
+/// Contact positions in structure-of-arrays form, so that distance loops vectorise.
+#[derive(Debug, Clone, Default)]
+struct Points {
+    x: Vec<Real>,
+    y: Vec<Real>,
+    z: Vec<Real>,
+}
+
+impl Points {
+    fn len(&self) -> usize {
+        self.x.len()
+    }
+
+    fn get(&self, i: usize) -> Vec3 {
+        Vec3::new(self.x[i], self.y[i], self.z[i])
+    }
+
+    /// `out[i] = |p_i − c|²` for every point.
+    fn distances_squared(&self, c: &Vec3, out: &mut [Real]) {
+        let n = out.len();
+        let (x, y, z) = (&self.x[..n], &self.y[..n], &self.z[..n]);
+        for i in 0..n {
+            let (dx, dy, dz) = (x[i] - c.x, y[i] - c.y, z[i] - c.z);
+            out[i] = dx * dx + dy * dy + dz * dz;
+        }
+    }
+}
+
+/// The arg-min of a row over the entries not `taken` (ties: lowest index), or `usize::MAX`.
+fn closest_free(row: &[Real], taken: &[bool]) -> (Real, usize) {
+    let mut best = (Real::INFINITY, usize::MAX);
+    for (i, (&d2, &t)) in row.iter().zip(taken).enumerate() {
+        if !t && d2 < best.0 {
+            best = (d2, i);
+        }
+    }
+    best
+}
+
+/// k-means contact clustering with reusable buffers and warm start (see the crate docs).
+#[derive(Debug, Clone)]
+pub struct Clusterer {
+    params: ClusterParams,
+    /// Contact positions `p_a` (world, m) and weights of the current call.
+    points: Points,
+    weights: Vec<Real>,
+    /// Cluster index of each contact.
+    assign: Vec<u32>,
+    /// Squared distances of the seeding, cluster-major: `dist[k * n + i] = |p_i − c_k|²` (m²).
+    dist: Vec<Real>,
+    /// Per contact: squared distance to the closest centroid so far (m²) and its index.
+    best: Vec<Real>,
+    second: Vec<Real>,
+    nearest: Vec<Real>,
+    /// Hamerly bounds per contact: upper on the distance to its centroid, lower on the distance
+    /// to any other (m); and how far each centroid moved in the last update (m).
+    upper: Vec<Real>,
+    lower: Vec<Real>,
+    moves: Vec<Real>,
+    /// Whether to record the cost after each assignment ([`Clusterer::record_costs`]).
+    record_costs: bool,
+    /// Squared distance of each contact to the nearest seed (seeding).
+    min_d2: Vec<Real>,
+    /// Seeds, then centroids (m), and per-cluster sums.
+    centroids: Vec<Vec3>,
+    sums: Vec<[Real; 4]>,
+    count: Vec<u32>,
+    /// Old cluster index to new, when empty clusters are dropped.
+    remap: Vec<u32>,
+    /// Previous call's representatives (position m, depth m), for the warm start.
+    previous: Vec<(Vec3, Real)>,
+    /// Scratch: which previous clusters / contacts are taken during the greedy pairing.
+    taken_old: Vec<bool>,
+    taken_new: Vec<bool>,
+    /// Scratch: the contact chosen as seed for each old cluster.
+    seed_of_old: Vec<usize>,
+    /// Scratch: each old cluster's closest free contact (squared distance, index).
+    best_of_old: Vec<(Real, usize)>,
+    /// Scratch: per-cluster sums for the representatives.
+    acc: Vec<Accumulator>,
+    /// Cost after each assignment of the last call.
+    costs: Vec<Real>,
+}
+
+impl Clusterer {
+    /// A clusterer with empty history.
+    ///
+    /// # Errors
+    /// [`ClusterError::ZeroClusters`] for `K = 0`, [`ClusterError::ZeroIterations`] for a zero
+    /// iteration cap.
+    pub fn new(params: ClusterParams) -> Result<Self, ClusterError> {
+        if params.max_clusters == 0 {
+            return Err(ClusterError::ZeroClusters);
+        }
+        if params.max_iterations == 0 {
+            return Err(ClusterError::ZeroIterations);
+        }
+        let k = params.max_clusters;
+        Ok(Self {
+            params,
+            points: Points::default(),
+            weights: Vec::new(),
+            assign: Vec::new(),
+            dist: Vec::new(),
+            best: Vec::new(),
+            second: Vec::new(),
+            nearest: Vec::new(),
+            upper: Vec::new(),
+            lower: Vec::new(),
+            moves: Vec::with_capacity(k),
+            record_costs: false,
+            min_d2: Vec::new(),
+            centroids: Vec::with_capacity(k),
+            sums: Vec::with_capacity(k),
+            count: Vec::with_capacity(k),
+            remap: Vec::with_capacity(k),
+            previous: Vec::with_capacity(k),
+            taken_old: Vec::with_capacity(k),
+            taken_new: Vec::new(),
+            seed_of_old: Vec::with_capacity(k),
+            best_of_old: Vec::with_capacity(k),
+            acc: Vec::with_capacity(k),
+            costs: Vec::with_capacity(params.max_iterations + 2),
+        })
+    }
+
+    /// The parameters.
+    pub fn params(&self) -> &ClusterParams {
+        &self.params
+    }
+
+    /// Forgets the previous clusters, so the next call cold-starts.
+    pub fn reset(&mut self) {
+        self.previous.clear();
+    }
+
+    /// The cluster index of each contact of the last call.
+    pub fn assignments(&self) -> &[u32] {
+        &self.assign
+    }
+
+    /// The cost `E` (eq. 28) after each assignment of the last call (and after the final
+    /// centroid update when the iteration cap was hit), when recording is on
+    /// ([`Clusterer::record_costs`]); empty otherwise.
+    pub fn cost_history(&self) -> &[Real] {
+        &self.costs
+    }
+
+    /// Turns the per-iteration cost record on or off (off by default: it costs a pass over the
+    /// contacts per iteration). For diagnostics and tests.
+    pub fn record_costs(&mut self, on: bool) {
+        self.record_costs = on;
+        self.costs.clear();
+    }
+
+    /// Clusters `contacts` (queried with tolerance `delta_m`) into at most `K` representatives,
+    /// written to `out` (cleared first). An empty input gives no representative and forgets the
+    /// history.
+    ///
+    /// # Errors
+    /// [`ClusterError::BadDelta`], [`ClusterError::NonFiniteContact`] or
+    /// [`ClusterError::BadNormal`]; `out` is left empty and the history unchanged.
+    pub fn cluster(
+        &mut self,
+        contacts: &[Contact],
+        delta_m: Real,
+        out: &mut ContactSet,
+    ) -> Result<ClusterStats, ClusterError> {
+        out.clear();
+        self.costs.clear();
+        if !(delta_m.is_finite() && delta_m > 0.0) {
+            return Err(ClusterError::BadDelta { delta_m });
+        }
+        validate(contacts)?;
+        let n = contacts.len();
+        self.assign.clear();
+        if n == 0 {
+            self.previous.clear();
+            return Ok(ClusterStats::default());
+        }
+        self.points.x.resize(n, 0.0);
+        self.points.y.resize(n, 0.0);
+        self.points.z.resize(n, 0.0);
+        self.weights.resize(n, 0.0);
+        for (i, c) in contacts.iter().enumerate() {
+            self.points.x[i] = c.p_a.x;
+            self.points.y[i] = c.p_a.y;
+            self.points.z[i] = c.p_a.z;
+            self.weights[i] = weight(c.depth_m, delta_m);
+        }
+        self.assign.resize(n, 0);
+        let k_max = self.params.max_clusters.min(n);
+        self.dist.resize(k_max * n, 0.0);
+
+        let warm = self.params.warm_start && !self.previous.is_empty();
+        self.seed(contacts, k_max, warm);
+
+        // Lloyd: assign to the closest centroid, then move centroids to the weighted means.
+        self.assign_all(true);
+        let mut iterations = 0;
+        let mut converged = false;
+        while iterations < self.params.max_iterations {
+            iterations += 1;
+            self.update_centroids();
+            if !self.assign_all(false) {
+                converged = true;
+                break;
+            }
+        }
+        if !converged {
+            // The assignment changed in the last iteration: make the centroids its means, which
+            // can only lower the cost further.
+            self.update_centroids();
+        }
+        let cost = self.cost();
+        if self.record_costs && !converged {
+            self.costs.push(cost);
+        }
+
+        self.write_representatives(contacts, delta_m, out);
+        self.previous.clear();
+        self.previous.extend(out.iter().map(|r| (r.p_a, r.depth_m)));
+        Ok(ClusterStats {
+            clusters: out.len(),
+            iterations,
+            converged,
+            warm,
+            cost,
+        })
+    }
+
+    /// Picks up to `k_max` distinct seeds (contact positions) into `centroids`.
+    fn seed(&mut self, contacts: &[Contact], k_max: usize, warm: bool) {
+        let n = self.points.len();
+        self.centroids.clear();
+        self.taken_new.clear();
+        self.taken_new.resize(n, false);
+        if warm {
+            // Keep the K deepest old clusters: drop the shallowest.
+            if self.previous.len() > k_max {
+                self.previous.sort_unstable_by(|a, b| b.1.total_cmp(&a.1));
+                self.previous.truncate(k_max);
+            }
+            // Greedy closest pairs (old representative, new contact); the seeds keep the order
+            // of the old clusters, so cluster identities persist from frame to frame.
+            let m = self.previous.len();
+            self.taken_old.clear();
+            self.taken_old.resize(m, false);
+            self.seed_of_old.clear();
+            self.seed_of_old.resize(m, usize::MAX);
+            self.best_of_old.clear();
+            for (j, (old, _)) in self.previous.iter().enumerate() {
+                let row = &mut self.dist[j * n..(j + 1) * n];
+                self.points.distances_squared(old, row);
+                self.best_of_old.push(closest_free(row, &self.taken_new));
+            }
+            for _ in 0..m {
+                let mut pick = usize::MAX;
+                for j in 0..m {
+                    if !self.taken_old[j]
+                        && self.best_of_old[j].1 != usize::MAX
+                        && (pick == usize::MAX || self.best_of_old[j].0 < self.best_of_old[pick].0)
+                    {
+                        pick = j;
+                    }
+                }
+                if pick == usize::MAX {
+                    break;
+                }
+                let i = self.best_of_old[pick].1;
+                self.taken_old[pick] = true;
+                self.taken_new[i] = true;
+                self.seed_of_old[pick] = i;
+                // Old clusters whose closest contact was just taken look again.
+                for j in 0..m {
+                    if !self.taken_old[j] && self.best_of_old[j].1 == i {
+                        self.best_of_old[j] =
+                            closest_free(&self.dist[j * n..(j + 1) * n], &self.taken_new);
+                    }
+                }
+            }
+            for &i in &self.seed_of_old {
+                if i == usize::MAX {
+                    continue;
+                }
+                let p = self.points.get(i);
+                // Coincident contacts could give two old clusters the same seed position: skip.
+                if !self.centroids.contains(&p) {
+                    self.centroids.push(p);
+                }
+            }
+        } else {
+            // Cold: the deepest contact (lowest index among equals) first.
+            let mut first = 0;
+            for (i, c) in contacts.iter().enumerate() {
+                if c.depth_m > contacts[first].depth_m {
+                    first = i;
+                }
+            }
+            self.centroids.push(self.points.get(first));
+        }
+        if self.centroids.len() >= k_max {
+            return;
+        }
+        // Furthest-point seeds for the rest.
+        self.min_d2.clear();
+        self.min_d2.resize(n, Real::INFINITY);
+        let row = &mut self.dist[..n];
+        for c in &self.centroids {
+            self.points.distances_squared(c, row);
+            for (m, d) in self.min_d2.iter_mut().zip(row.iter()) {
+                *m = m.min(*d);
+            }
+        }
+        while self.centroids.len() < k_max {
+            let mut best = (0.0, usize::MAX);
+            for (i, &d2) in self.min_d2.iter().enumerate() {
+                if d2 > best.0 {
+                    best = (d2, i);
+                }
+            }
+            if best.1 == usize::MAX {
+                break; // every remaining contact coincides with a seed
+            }
+            let s = self.points.get(best.1);
+            self.centroids.push(s);
+            self.points.distances_squared(&s, row);
+            for (m, d) in self.min_d2.iter_mut().zip(row.iter()) {
+                *m = m.min(*d);
+            }
+        }
+    }
+
+    /// Assigns every contact to its closest centroid (ties: lowest index) and drops clusters left
+    /// empty; records the cost (eq. 28) when asked to. Returns whether any assignment changed
+    /// (always `true` when `first`).
+    ///
+    /// The first pass runs centroid by centroid over all contacts, branch-free, so it
+    /// vectorises. Later passes use Hamerly's bounds: each contact keeps an upper bound on the
+    /// distance to its own centroid and a lower bound on the distance to any other; centroid
+    /// moves loosen them (triangle inequality) and only contacts whose bounds cross are scanned
+    /// again. The result is exactly Lloyd's assignment.
+    fn assign_all(&mut self, first: bool) -> bool {
+        let n = self.points.len();
+        let (x, y, z) = (
+            &self.points.x[..n],
+            &self.points.y[..n],
+            &self.points.z[..n],
+        );
+        let mut changed = first;
+        if first {
+            self.best.clear();
+            self.best.resize(n, Real::INFINITY);
+            self.second.clear();
+            self.second.resize(n, Real::INFINITY);
+            self.nearest.clear();
+            self.nearest.resize(n, 0.0);
+            let (best, second) = (&mut self.best[..n], &mut self.second[..n]);
+            let nearest = &mut self.nearest[..n];
+            for (j, c) in self.centroids.iter().enumerate() {
+                // The index as a float of the distances' width, so the selects vectorise.
+                let j = j as Real;
+                for i in 0..n {
+                    let (dx, dy, dz) = (x[i] - c.x, y[i] - c.y, z[i] - c.z);
+                    let d = dx * dx + dy * dy + dz * dz;
+                    let closer = d < best[i];
+                    second[i] = if closer { best[i] } else { second[i].min(d) };
+                    best[i] = if closer { d } else { best[i] };
+                    nearest[i] = if closer { j } else { nearest[i] };
+                }
+            }
+            self.upper.resize(n, 0.0);
+            self.lower.resize(n, 0.0);
+            for i in 0..n {
+                self.assign[i] = self.nearest[i] as u32;
+                self.upper[i] = self.best[i].sqrt();
+                self.lower[i] = self.second[i].sqrt();
+            }
+        } else {
+            // Largest and second largest centroid moves since the last pass.
+            let (mut m1, mut k1, mut m2) = (0.0, usize::MAX, 0.0);
+            for (k, &m) in self.moves.iter().enumerate() {
+                if m > m1 {
+                    (m2, m1, k1) = (m1, m, k);
+                } else if m > m2 {
+                    m2 = m;
+                }
+            }
+            for i in 0..n {
+                let a = self.assign[i] as usize;
+                self.upper[i] += self.moves[a];
+                self.lower[i] -= if a == k1 { m2 } else { m1 };
+                if self.upper[i] < self.lower[i] {
+                    continue;
+                }
+                // The bounds cross: scan this contact against every centroid.
+                let p = Vec3::new(x[i], y[i], z[i]);
+                let (mut d1, mut b1, mut d2) = (Real::INFINITY, 0u32, Real::INFINITY);
+                for (k, c) in self.centroids.iter().enumerate() {
+                    let d = (p - c).norm_squared();
+                    if d < d1 {
+                        (d2, d1, b1) = (d1, d, k as u32);
+                    } else if d < d2 {
+                        d2 = d;
+                    }
+                }
+                changed |= self.assign[i] != b1;
+                self.assign[i] = b1;
+                self.upper[i] = d1.sqrt();
+                self.lower[i] = d2.sqrt();
+            }
+        }
+        if self.record_costs {
+            let cost = self.cost();
+            self.costs.push(cost);
+        }
+        self.drop_empty();
+        changed
+    }
+
+    /// Removes clusters with no contact and renumbers the assignment.
+    fn drop_empty(&mut self) {
+        let k = self.centroids.len();
+        self.count.clear();
+        self.count.resize(k, 0);
+        for &a in &self.assign {
+            self.count[a as usize] += 1;
+        }
+        if self.count.iter().all(|&c| c > 0) {
+            return;
+        }
+        self.remap.clear();
+        let mut next = 0;
+        for j in 0..k {
+            self.remap.push(next as u32);
+            if self.count[j] > 0 {
+                self.centroids[next] = self.centroids[j];
+                next += 1;
+            }
+        }
+        self.centroids.truncate(next);
+        for a in &mut self.assign {
+            *a = self.remap[*a as usize];
+        }
+    }
+
+    /// Moves each centroid to the weighted mean of its contacts (eq. 29).
+    fn update_centroids(&mut self) {
+        let k = self.centroids.len();
+        let n = self.points.len();
+        self.sums.clear();
+        self.sums.resize(k, [0.0; 4]);
+        let (x, y, z) = (
+            &self.points.x[..n],
+            &self.points.y[..n],
+            &self.points.z[..n],
+        );
+        let (w, assign) = (&self.weights[..n], &self.assign[..n]);
+        for i in 0..n {
+            let s = &mut self.sums[assign[i] as usize];
+            s[0] += w[i] * x[i];
+            s[1] += w[i] * y[i];
+            s[2] += w[i] * z[i];
+            s[3] += w[i];
+        }
+        self.moves.clear();
+        for (c, s) in self.centroids.iter_mut().zip(&self.sums) {
+            let mut moved = 0.0;
+            if s[3] > 0.0 {
+                let new = Vec3::new(s[0], s[1], s[2]) / s[3];
+                moved = (new - *c).norm();
+                *c = new;
+            }
+            self.moves.push(moved);
+        }
+    }
+
+    /// `E = Σ w_i |p_i − c_k(i)|²` (eq. 28).
+    fn cost(&self) -> Real {
+        (0..self.points.len())
+            .map(|i| {
+                self.weights[i]
+                    * (self.points.get(i) - self.centroids[self.assign[i] as usize]).norm_squared()
+            })
+            .sum()
+    }
+
+    /// One representative per cluster (eqs. 30–32, see the crate docs), in one pass over the
+    /// contacts.
+    fn write_representatives(&mut self, contacts: &[Contact], delta_m: Real, out: &mut ContactSet) {
+        let k = self.centroids.len();
+        self.acc.clear();
+        self.acc.resize(k, Accumulator::default());
+        for (i, ((c, &a), &w)) in contacts
+            .iter()
+            .zip(&self.assign)
+            .zip(&self.weights)
+            .enumerate()
+        {
+            let acc = &mut self.acc[a as usize];
+            acc.w += w;
+            acc.p_a += c.p_a * w;
+            acc.r_a += c.r_a * w;
+            acc.n += c.n * w;
+            acc.d += c.depth_m * w;
+            if acc.deepest == usize::MAX || c.depth_m > contacts[acc.deepest].depth_m {
+                acc.deepest = i;
+            }
+        }
+        for acc in &self.acc {
+            if acc.deepest == usize::MAX {
+                continue;
+            }
+            let deepest = &contacts[acc.deepest];
+            let p_a = acc.p_a / acc.w;
+            let d = (acc.d / acc.w).max(-delta_m);
+            // Opposed normals can cancel: fall back to the deepest contact's normal.
+            let n = acc.n.try_normalize(1e-9 * acc.w).unwrap_or(deepest.n);
+            out.push(Contact {
+                p_a,
+                r_a: acc.r_a / acc.w,
+                p_b: p_a - d * n,
+                n,
+                depth_m: d,
+                feature_a: deepest.feature_a,
+                feature_b: deepest.feature_b,
+            });
+        }
+    }
+}
+
+/// Checks every contact: a cheap screen first (the sum of all fields is finite only if each
+/// is, and `|n|² ≈ 1`), and [`Contact::validate`] for the precise error when it fails.
+fn validate(contacts: &[Contact]) -> Result<(), ClusterError> {
+    for (index, c) in contacts.iter().enumerate() {
+        let sum = c.p_a.sum() + c.r_a.sum() + c.p_b.sum() + c.n.sum() + c.depth_m;
+        let n2 = c.n.norm_squared();
+        // |n| within 1e-6 of 1 ⇔ |n|² within about 2e-6 of 1; screen a little inside that.
+        if sum.is_finite() && (n2 - 1.0).abs() <= 1.9e-6 {
+            continue;
+        }
+        c.validate().map_err(|e| match e {
+            CoreError::BadNormal { norm } => ClusterError::BadNormal { index, norm },
+            CoreError::NonFinite { what } => ClusterError::NonFiniteContact { index, what },
+            _ => ClusterError::NonFiniteContact {
+                index,
+                what: "field",
+            },
+        })?;
+    }
+    Ok(())
+}
+
+/// Weighted sums over one cluster's contacts.
+#[derive(Debug, Clone, Copy)]
+struct Accumulator {
+    w: Real,
+    p_a: Vec3,
+    r_a: Vec3,
+    n: Vec3,
+    d: Real,
+    deepest: usize,
+}
+
+impl Default for Accumulator {
+    fn default() -> Self {
+        Self {
+            w: 0.0,
+            p_a: Vec3::zeros(),
+            r_a: Vec3::zeros(),
+            n: Vec3::zeros(),
+            d: 0.0,
+            deepest: usize::MAX,
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests;

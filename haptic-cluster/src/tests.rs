@@ -1,0 +1,312 @@
+//! Unit and property tests of the clustering.
+
+use super::*;
+use proptest::prelude::*;
+
+const DELTA_M: Real = 1e-3;
+
+/// A contact at `p` with normal `n` (normalised) and depth `d`.
+fn contact(p: Vec3, n: Vec3, d: Real) -> Contact {
+    Contact::new(p, p, p - d * n.normalize(), n.normalize(), d).unwrap()
+}
+
+/// Contacts around a few patch centres (m), depths in [−δ, 2 mm].
+fn arb_contacts() -> impl Strategy<Value = Vec<Contact>> {
+    (
+        prop::collection::vec(prop::array::uniform3(-0.05..0.05f64), 1..5),
+        prop::collection::vec(
+            (
+                0usize..5,
+                prop::array::uniform3(-0.005..0.005f64),
+                prop::array::uniform3(-1.0..1.0f64),
+                -DELTA_M..2e-3,
+            ),
+            1..120,
+        ),
+    )
+        .prop_map(|(centres, raw)| {
+            raw.into_iter()
+                .map(|(c, off, n, d)| {
+                    let p = Vec3::from(centres[c % centres.len()]) + Vec3::from(off);
+                    let n = Vec3::from(n) + Vec3::new(0.0, 0.0, 1e-3);
+                    contact(p, n, d)
+                })
+                .collect()
+        })
+}
+
+proptest! {
+    #![proptest_config(ProptestConfig::with_cases(256))]
+
+    #[test]
+    fn lloyd_invariants(contacts in arb_contacts(), k in 1usize..9, warm_frames in 0usize..3) {
+        let mut clusterer = Clusterer::new(ClusterParams { max_clusters: k, ..Default::default() }).unwrap();
+        clusterer.record_costs(true);
+        let mut reps = ContactSet::new();
+        // Optionally warm up on shifted copies of the same set first.
+        for f in 0..warm_frames {
+            let shifted: Vec<Contact> = contacts.iter().map(|c| {
+                let mut c = *c;
+                c.p_a += Vec3::new(1e-3 * (f + 1) as Real, 0.0, 0.0);
+                c
+            }).collect();
+            clusterer.cluster(&shifted, DELTA_M, &mut reps).unwrap();
+        }
+        let stats = clusterer.cluster(&contacts, DELTA_M, &mut reps).unwrap();
+        let n = contacts.len();
+        // At most K clusters (and at most N), each non-empty, every contact assigned.
+        prop_assert!(reps.len() <= k.min(n));
+        prop_assert!(!reps.is_empty());
+        prop_assert_eq!(stats.clusters, reps.len());
+        let a = clusterer.assignments();
+        prop_assert_eq!(a.len(), n);
+        let mut count = vec![0usize; reps.len()];
+        for &ai in a {
+            prop_assert!((ai as usize) < reps.len());
+            count[ai as usize] += 1;
+        }
+        prop_assert!(count.iter().all(|&c| c > 0), "empty cluster: {:?}", count);
+        // Representatives inside the contacts' convex hull: for every direction u,
+        // u·rep <= max_i u·p_i (checked on the axes and 64 fixed directions).
+        let mut dirs = vec![Vec3::x(), Vec3::y(), Vec3::z(), -Vec3::x(), -Vec3::y(), -Vec3::z()];
+        for i in 0..64 {
+            let t = i as Real * 0.7;
+            dirs.push(Vec3::new(t.cos() * (1.3 * t).sin(), t.sin() * (1.3 * t).sin(), (1.3 * t).cos()));
+        }
+        for r in reps.iter() {
+            for u in &dirs {
+                let hi = contacts.iter().map(|c| u.dot(&c.p_a)).fold(Real::NEG_INFINITY, Real::max);
+                prop_assert!(u.dot(&r.p_a) <= hi + 1e-12, "representative outside the hull");
+            }
+            prop_assert!((r.n.norm() - 1.0).abs() < 1e-9);
+            prop_assert!(r.depth_m >= -DELTA_M - 1e-15);
+            prop_assert!(r.validate().is_ok());
+        }
+        // The cost (eq. 28) never increases from one iteration to the next.
+        // Rounding allowance: 1e-12 of the cost of putting everything in one point's cluster.
+        let scale: Real = contacts.iter().map(|c| weight(c.depth_m, DELTA_M) * (c.p_a - contacts[0].p_a).norm_squared()).sum();
+        prop_assert!(!clusterer.cost_history().is_empty());
+        prop_assert!((clusterer.cost_history().last().unwrap() - stats.cost).abs() <= 1e-12 * scale + 1e-30);
+        for w in clusterer.cost_history().windows(2) {
+            prop_assert!(w[1] <= w[0] + 1e-12 * scale + 1e-30, "cost rose: {:?}", clusterer.cost_history());
+        }
+    }
+}
+
+#[test]
+fn fewer_contacts_than_k_give_one_cluster_each() {
+    let contacts: Vec<Contact> = (0..3)
+        .map(|i| contact(Vec3::new(0.01 * i as Real, 0.0, 0.0), Vec3::z(), 1e-4))
+        .collect();
+    let mut c = Clusterer::new(ClusterParams::default()).unwrap();
+    let mut reps = ContactSet::new();
+    c.cluster(&contacts, DELTA_M, &mut reps).unwrap();
+    assert_eq!(reps.len(), 3);
+    for k in &contacts {
+        let r = reps
+            .iter()
+            .find(|r| (r.p_a - k.p_a).norm() < 1e-15)
+            .unwrap();
+        assert!((r.depth_m - k.depth_m).abs() < 1e-15);
+    }
+}
+
+#[test]
+fn coincident_contacts_give_one_cluster() {
+    let contacts = vec![contact(Vec3::new(0.1, 0.2, 0.3), Vec3::z(), 5e-4); 12];
+    let mut c = Clusterer::new(ClusterParams::default()).unwrap();
+    let mut reps = ContactSet::new();
+    let stats = c.cluster(&contacts, DELTA_M, &mut reps).unwrap();
+    assert_eq!(reps.len(), 1);
+    assert!(stats.converged);
+    assert!((reps.as_slice()[0].depth_m - 5e-4).abs() < 1e-15);
+}
+
+#[test]
+fn two_patches_are_found_and_representatives_average_them() {
+    // Two patches 10 cm apart, depth 1 mm and 0 (weights 2δ and δ); normals tilted either way.
+    let mut contacts = Vec::new();
+    for i in 0..10 {
+        let x = 1e-3 * i as Real;
+        contacts.push(contact(
+            Vec3::new(x, 0.0, 0.0),
+            Vec3::new(0.1, 0.0, 1.0),
+            1e-3,
+        ));
+        contacts.push(contact(
+            Vec3::new(x + 0.1, 0.0, 0.0),
+            Vec3::new(-0.1, 0.0, 1.0),
+            0.0,
+        ));
+    }
+    let mut c = Clusterer::new(ClusterParams {
+        max_clusters: 2,
+        ..Default::default()
+    })
+    .unwrap();
+    let mut reps = ContactSet::new();
+    c.cluster(&contacts, DELTA_M, &mut reps).unwrap();
+    let mut reps: Vec<Contact> = reps.iter().copied().collect();
+    reps.sort_by(|a, b| a.p_a.x.total_cmp(&b.p_a.x));
+    approx::assert_relative_eq!(reps[0].p_a.x, 4.5e-3, epsilon = 1e-12);
+    approx::assert_relative_eq!(reps[1].p_a.x, 0.1045, epsilon = 1e-12);
+    approx::assert_relative_eq!(reps[0].depth_m, 1e-3, epsilon = 1e-15);
+    approx::assert_relative_eq!(
+        reps[0].n,
+        Vec3::new(0.1, 0.0, 1.0).normalize(),
+        epsilon = 1e-12
+    );
+    // p_b = p_a − d n.
+    approx::assert_relative_eq!(reps[0].p_b, reps[0].p_a - 1e-3 * reps[0].n, epsilon = 1e-15);
+}
+
+#[test]
+fn bad_input_gives_typed_errors() {
+    assert_eq!(
+        Clusterer::new(ClusterParams {
+            max_clusters: 0,
+            ..Default::default()
+        })
+        .unwrap_err(),
+        ClusterError::ZeroClusters
+    );
+    assert_eq!(
+        Clusterer::new(ClusterParams {
+            max_iterations: 0,
+            ..Default::default()
+        })
+        .unwrap_err(),
+        ClusterError::ZeroIterations
+    );
+    let mut c = Clusterer::new(ClusterParams::default()).unwrap();
+    let mut reps = ContactSet::new();
+    let good = contact(Vec3::zeros(), Vec3::z(), 0.0);
+    let mut nan = good;
+    nan.p_a.y = Real::NAN;
+    assert!(matches!(
+        c.cluster(&[good, nan], DELTA_M, &mut reps),
+        Err(ClusterError::NonFiniteContact { index: 1, .. })
+    ));
+    let mut zero_normal = good;
+    zero_normal.n = Vec3::zeros();
+    assert!(matches!(
+        c.cluster(&[zero_normal], DELTA_M, &mut reps),
+        Err(ClusterError::BadNormal { index: 0, norm }) if norm == 0.0
+    ));
+    let mut inf_depth = good;
+    inf_depth.depth_m = Real::INFINITY;
+    assert!(matches!(
+        c.cluster(&[inf_depth], DELTA_M, &mut reps),
+        Err(ClusterError::NonFiniteContact {
+            index: 0,
+            what: "contact depth"
+        })
+    ));
+    for delta in [0.0, -1e-3, Real::NAN] {
+        assert!(matches!(
+            c.cluster(&[good], delta, &mut reps),
+            Err(ClusterError::BadDelta { .. })
+        ));
+    }
+    assert!(reps.is_empty());
+}
+
+#[test]
+fn empty_input_gives_no_representative() {
+    let mut c = Clusterer::new(ClusterParams::default()).unwrap();
+    let mut reps = ContactSet::new();
+    reps.push(contact(Vec3::zeros(), Vec3::z(), 0.0));
+    let stats = c.cluster(&[], DELTA_M, &mut reps).unwrap();
+    assert!(reps.is_empty());
+    assert_eq!(stats.clusters, 0);
+}
+
+/// A slowly drifting contact set: `n` contacts spread evenly on a ring of radius 1 cm (a set
+/// with many near-equivalent clusterings), turning by 0.3 mrad per frame, with depths that vary
+/// slowly around it so that the deepest contact wanders.
+fn drifting_frame(frame: usize, n: usize) -> Vec<Contact> {
+    let t = frame as Real;
+    (0..n)
+        .map(|i| {
+            let a = std::f64::consts::TAU * i as Real / n as Real + 3e-4 * t;
+            let p = Vec3::new(0.01 * a.cos(), 0.01 * a.sin(), 0.0);
+            let d = 5e-4 + 2e-4 * (3.0 * a - 0.004 * t).sin();
+            contact(p, Vec3::z(), d)
+        })
+        .collect()
+}
+
+/// The largest distance any representative of `now` is from the closest one of `before`.
+fn largest_jump(before: &[Contact], now: &[Contact]) -> Real {
+    now.iter()
+        .map(|r| {
+            before
+                .iter()
+                .map(|b| (r.p_a - b.p_a).norm())
+                .fold(Real::INFINITY, Real::min)
+        })
+        .fold(0.0, Real::max)
+}
+
+/// Runs the 1,000-frame drifting sequence and returns the largest representative jump (m).
+fn drift_run(warm_start: bool) -> Real {
+    let mut c = Clusterer::new(ClusterParams {
+        warm_start,
+        ..Default::default()
+    })
+    .unwrap();
+    let mut reps = ContactSet::new();
+    let mut before: Vec<Contact> = Vec::new();
+    let mut jump: Real = 0.0;
+    for frame in 0..1000 {
+        c.cluster(&drifting_frame(frame, 60), DELTA_M, &mut reps)
+            .unwrap();
+        let now: Vec<Contact> = reps.iter().copied().collect();
+        if frame > 0 {
+            jump = jump.max(largest_jump(&before, &now));
+        }
+        before = now;
+    }
+    jump
+}
+
+#[test]
+fn warm_start_moves_representatives_continuously() {
+    let warm = drift_run(true);
+    let cold = drift_run(false);
+    // A contact moves 3 µm per frame, and neighbours are 1.05 mm apart. With warm start a
+    // representative jumps only when one contact changes cluster (about half the spacing); cold
+    // starts re-seed at the wandering deepest contact and the clusters rotate around the ring.
+    println!("largest representative jump over 1000 frames: warm {warm:.3e} m, cold {cold:.3e} m");
+    assert!(warm < 1.05e-3, "warm start jumped {warm} m");
+    assert!(cold > 5.0 * warm, "cold {cold} m vs warm {warm} m");
+}
+
+#[test]
+fn same_input_gives_same_output() {
+    let run = || {
+        let mut c = Clusterer::new(ClusterParams::default()).unwrap();
+        let mut reps = ContactSet::new();
+        let mut all = Vec::new();
+        for frame in 0..50 {
+            c.cluster(&drifting_frame(frame * 7, 40), DELTA_M, &mut reps)
+                .unwrap();
+            all.extend(reps.iter().copied());
+        }
+        all
+    };
+    let (a, b) = (run(), run());
+    assert_eq!(a.len(), b.len());
+    for (x, y) in a.iter().zip(&b) {
+        // Bit-identical.
+        assert_eq!(x, y);
+    }
+    // And the same input in consecutive calls, once warm, is a fixed point.
+    let mut c = Clusterer::new(ClusterParams::default()).unwrap();
+    let frame = drifting_frame(0, 40);
+    let (mut r1, mut r2) = (ContactSet::new(), ContactSet::new());
+    c.cluster(&frame, DELTA_M, &mut r1).unwrap();
+    c.cluster(&frame, DELTA_M, &mut r1).unwrap();
+    c.cluster(&frame, DELTA_M, &mut r2).unwrap();
+    assert_eq!(r1.as_slice(), r2.as_slice());
+}
