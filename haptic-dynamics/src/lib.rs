@@ -55,6 +55,7 @@ pub use eom::{add_wrench_jacobian, free_jacobian, state_derivative, system_jacob
 pub use error::DynamicsError;
 pub use forces::{Gravity, HapticForces};
 pub use integrators::{BackwardEuler, ForwardEuler, IntegratorKind, NewtonBackwardEuler, Rk4};
+pub use penalty::{PenaltyModel, PenaltyParams};
 
 /// Compile-time check that the force model and integrators can move to the haptic thread.
 const _: () = {

@@ -1,1 +1,454 @@
-//! The penalty contact model (eqs. 33–41): being written.
+//! The penalty contact model (eqs. 33–41): one viscoelastic planar constraint per contact (or
+//! cluster representative), with pre-contact offset `δ`, and its analytic Jacobian.
+//!
+//! For a contact with body-frame point `r_a`, obstacle point `p_b` and unit normal `n` (out of
+//! the tool), at tool state `y = (x, q, P, L)`:
+//!
+//! ```text
+//! ρ   = R(q) r_a,       p_a = x + ρ,       v_a = v + ω × ρ
+//! g   = n·(p_a − p_b) + δ                       (penetration plus pre-contact offset)
+//! λ   = k_c g + b_c n·v_a                        (normal force magnitude)
+//! F_k = −λ n = −k_c N (p_a − p_b + δ n) − b_c N v_a    while g > 0 and λ > 0, else 0   (eq. 33)
+//! T_k = ρ × F_k
+//! ```
+//!
+//! `N = n nᵀ`. The force never pulls: when damping would make `λ` negative (the tool leaving
+//! the surface fast) the contact gives no force and no Jacobian (our choice, `formulation.md`).
+//! Jacobians (eqs. 34–41): `∂F/∂y = −n ∂λ/∂y` with
+//!
+//! ```text
+//! ∂λ/∂x   = k_c nᵀ
+//! ∂λ/∂q_k = k_c n·(R_k r_a) + b_c [ (ρ × n)·∂ω/∂q_k + (n × ω)·(R_k r_a) ]
+//! ∂λ/∂P   = (b_c/m) nᵀ
+//! ∂λ/∂L   = b_c (ρ × n)ᵀ I_w⁻¹
+//! ∂T/∂y   = [ρ]× ∂F/∂y − [F]× ∂ρ/∂y,     ∂ρ/∂q_k = R_k r_a
+//! ```
+//!
+//! The contacts' `n`, `p_b` and `r_a` are constants within one evaluation. With `K` clustered
+//! representatives the translational stiffness `‖∂F/∂x‖ ≤ K k_c` whatever the raw contact count.
+
+use haptic_core::math::{IL, IP, IQ, IX, skew};
+use haptic_core::{
+    Contact, ContactModel, ContactModelError, CoreError, Kinematics, Real, RigidBody, StateVector,
+    Vec3, Wrench, WrenchJacobian,
+};
+use nalgebra::SMatrix;
+
+use crate::error::{DynamicsError, finite};
+
+/// Parameters of the penalty model.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct PenaltyParams {
+    /// Contact stiffness `k_c` (N/m) per contact.
+    pub stiffness_n_per_m: Real,
+    /// Contact damping `b_c` (N s/m) per contact.
+    pub damping_ns_per_m: Real,
+    /// Pre-contact offset `δ` (m): a contact pushes from `δ` before the surfaces touch. Use the
+    /// same `δ` as the collision query's distance tolerance.
+    pub delta_m: Real,
+}
+
+impl Default for PenaltyParams {
+    /// `k_c = 2000 N/m`, `b_c = 2 N s/m`, `δ = 1 mm`: ten times the default coupling stiffness,
+    /// so contact dominates the coupling as in the paper's experiments.
+    fn default() -> Self {
+        Self {
+            stiffness_n_per_m: 2000.0,
+            damping_ns_per_m: 2.0,
+            delta_m: 1e-3,
+        }
+    }
+}
+
+impl PenaltyParams {
+    /// Validated parameters.
+    ///
+    /// # Errors
+    /// [`DynamicsError::NonFinite`] or [`DynamicsError::OutOfRange`] for a non-positive
+    /// stiffness, a negative damping or a negative `δ`.
+    pub fn new(
+        stiffness_n_per_m: Real,
+        damping_ns_per_m: Real,
+        delta_m: Real,
+    ) -> Result<Self, DynamicsError> {
+        let p = Self {
+            stiffness_n_per_m,
+            damping_ns_per_m,
+            delta_m,
+        };
+        p.validate()?;
+        Ok(p)
+    }
+
+    /// Checks the ranges (see [`PenaltyParams::new`]).
+    ///
+    /// # Errors
+    /// As [`PenaltyParams::new`].
+    pub fn validate(&self) -> Result<(), DynamicsError> {
+        finite(self.stiffness_n_per_m, "contact stiffness")?;
+        finite(self.damping_ns_per_m, "contact damping")?;
+        finite(self.delta_m, "contact offset δ")?;
+        if self.stiffness_n_per_m <= 0.0 {
+            return Err(DynamicsError::OutOfRange {
+                what: "contact stiffness",
+                value: self.stiffness_n_per_m,
+                expected: "> 0 N/m",
+            });
+        }
+        if self.damping_ns_per_m < 0.0 {
+            return Err(DynamicsError::OutOfRange {
+                what: "contact damping",
+                value: self.damping_ns_per_m,
+                expected: ">= 0 N s/m",
+            });
+        }
+        if self.delta_m < 0.0 {
+            return Err(DynamicsError::OutOfRange {
+                what: "contact offset δ",
+                value: self.delta_m,
+                expected: ">= 0 m",
+            });
+        }
+        Ok(())
+    }
+}
+
+/// The penalty contact model (eq. 33) behind [`ContactModel`]. Stateless apart from its
+/// parameters; evaluating it allocates nothing.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct PenaltyModel {
+    params: PenaltyParams,
+}
+
+impl PenaltyModel {
+    /// A model with validated parameters.
+    ///
+    /// # Errors
+    /// As [`PenaltyParams::validate`].
+    pub fn new(params: PenaltyParams) -> Result<Self, DynamicsError> {
+        params.validate()?;
+        Ok(Self { params })
+    }
+
+    /// The parameters.
+    pub fn params(&self) -> &PenaltyParams {
+        &self.params
+    }
+}
+
+/// Maps a contact's validation error to the contact model's, with its index.
+fn contact_error(index: usize, e: CoreError) -> ContactModelError {
+    match e {
+        CoreError::BadNormal { norm } => ContactModelError::BadNormal { index, norm },
+        CoreError::NonFinite { what } => ContactModelError::NonFiniteContact { index, what },
+        other => ContactModelError::Parameter(other),
+    }
+}
+
+impl ContactModel for PenaltyModel {
+    fn evaluate(
+        &mut self,
+        body: &RigidBody,
+        y: &StateVector,
+        kin: &Kinematics,
+        contacts: &[Contact],
+        mut jacobian: Option<&mut WrenchJacobian>,
+    ) -> Result<Wrench, ContactModelError> {
+        if y.iter().any(|v| !v.is_finite()) {
+            return Err(ContactModelError::NonFiniteState);
+        }
+        let (k_c, b_c, delta) = (
+            self.params.stiffness_n_per_m,
+            self.params.damping_ns_per_m,
+            self.params.delta_m,
+        );
+        let x: Vec3 = y.fixed_rows::<3>(IX).into_owned();
+        let inv_m = 1.0 / body.mass_kg();
+        let mut force = Vec3::zeros();
+        let mut torque = Vec3::zeros();
+        if let Some(j) = jacobian.as_deref_mut() {
+            j.fill(0.0);
+        }
+        for (index, c) in contacts.iter().enumerate() {
+            c.validate().map_err(|e| contact_error(index, e))?;
+            let n = c.n;
+            let rho = kin.r * c.r_a; // ρ = R r_a
+            let p_a = x + rho;
+            let g = n.dot(&(p_a - c.p_b)) + delta;
+            if g <= 0.0 {
+                continue; // farther than δ: no constraint
+            }
+            let v_a = kin.v + kin.omega.cross(&rho);
+            let lambda = k_c * g + b_c * n.dot(&v_a);
+            if lambda <= 0.0 {
+                continue; // the force never pulls
+            }
+            let f = -lambda * n; // eq. 33
+            force += f;
+            torque += rho.cross(&f);
+            let Some(jac) = jacobian.as_deref_mut() else {
+                continue;
+            };
+            // ∂λ/∂y (1×13), eqs. 34–37.
+            let rho_x_n = rho.cross(&n);
+            let n_x_omega = n.cross(&kin.omega);
+            let mut dl = SMatrix::<Real, 1, 13>::zeros();
+            // ∂ρ/∂q (3×4), columns R_k r_a.
+            let mut drho_dq = SMatrix::<Real, 3, 4>::zeros();
+            for k in 0..4 {
+                let drho = kin.r_partials[k] * c.r_a;
+                drho_dq.set_column(k, &drho);
+                let domega = kin.omega_q.column(k);
+                dl[IQ + k] =
+                    k_c * n.dot(&drho) + b_c * (rho_x_n.dot(&domega) + n_x_omega.dot(&drho));
+            }
+            for a in 0..3 {
+                dl[IX + a] = k_c * n[a];
+                dl[IP + a] = b_c * inv_m * n[a];
+            }
+            let dl_dl = (kin.inertia_world_inv.transpose() * rho_x_n) * b_c;
+            for a in 0..3 {
+                dl[IL + a] = dl_dl[a];
+            }
+            // ∂F/∂y = −n ∂λ/∂y (3×13); ∂T/∂y = [ρ]× ∂F/∂y − [F]× ∂ρ/∂y (eqs. 38–41).
+            let df = -n * dl;
+            let mut dt = skew(&rho) * df;
+            let f_x = skew(&f);
+            let dt_q = f_x * drho_dq;
+            for k in 0..4 {
+                for a in 0..3 {
+                    dt[(a, IQ + k)] -= dt_q[(a, k)];
+                }
+            }
+            let mut top = jac.fixed_rows_mut::<3>(0);
+            top += df;
+            let mut bottom = jac.fixed_rows_mut::<3>(3);
+            bottom += dt;
+        }
+        Ok(Wrench::new(force, torque))
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::testutil::{arb_body, arb_raw_state, column_check};
+    use haptic_core::{LinearizationMode, LinearizedContact, ToolState};
+    use proptest::prelude::*;
+
+    const K_C: Real = 2000.0;
+    const B_C: Real = 5.0;
+    const DELTA: Real = 1e-3;
+
+    fn model() -> PenaltyModel {
+        PenaltyModel::new(PenaltyParams::new(K_C, B_C, DELTA).unwrap()).unwrap()
+    }
+
+    /// Contacts fixed in the tool at the state `y`: body points `r_a`, normals `n`, depths `d`.
+    fn contacts_at(
+        body: &RigidBody,
+        y: &StateVector,
+        raw: &[([f64; 3], [f64; 3], f64)],
+    ) -> Vec<Contact> {
+        let kin = Kinematics::new(body, y);
+        let x: Vec3 = y.fixed_rows::<3>(IX).into_owned();
+        raw.iter()
+            .map(|(r, n, d)| {
+                let r_a = Vec3::from(*r);
+                let n = (Vec3::from(*n) + Vec3::new(0.0, 0.0, 1e-3)).normalize();
+                let p_a = x + kin.r * r_a;
+                Contact::new(p_a, r_a, p_a - *d * n, n, *d).unwrap()
+            })
+            .collect()
+    }
+
+    fn eval(body: &RigidBody, y: &StateVector, contacts: &[Contact]) -> Wrench {
+        let kin = Kinematics::new(body, y);
+        model().evaluate(body, y, &kin, contacts, None).unwrap()
+    }
+
+    fn arb_raw_contacts() -> impl Strategy<Value = Vec<([f64; 3], [f64; 3], f64)>> {
+        prop::collection::vec(
+            (
+                prop::array::uniform3(-0.05..0.05f64),
+                prop::array::uniform3(-1.0..1.0f64),
+                -0.5e-3..2e-3f64,
+            ),
+            1..8,
+        )
+    }
+
+    /// The smallest normal-force magnitude over the contacts, relative to `k_c (d + δ)`: the
+    /// finite differences must not cross the switch-off at `λ = 0`.
+    fn min_lambda_ratio(body: &RigidBody, y: &StateVector, contacts: &[Contact]) -> Real {
+        let kin = Kinematics::new(body, y);
+        contacts
+            .iter()
+            .map(|c| {
+                let rho = kin.r * c.r_a;
+                let v_a = kin.v + kin.omega.cross(&rho);
+                let g = c.depth_m + DELTA;
+                (K_C * g + B_C * c.n.dot(&v_a)) / (K_C * g)
+            })
+            .fold(Real::INFINITY, Real::min)
+    }
+
+    proptest! {
+        #![proptest_config(ProptestConfig::with_cases(1000))]
+
+        /// Force and torque Jacobians (eqs. 34–41) against central differences.
+        #[test]
+        fn penalty_jacobian_matches_fd(
+            body in arb_body(),
+            s in arb_raw_state(),
+            raw in arb_raw_contacts(),
+        ) {
+            let y = s.state_vector(&body);
+            let contacts = contacts_at(&body, &y, &raw);
+            prop_assume!(min_lambda_ratio(&body, &y, &contacts) > 1e-3);
+            let kin = Kinematics::new(&body, &y);
+            let mut jac = WrenchJacobian::zeros();
+            let w = model().evaluate(&body, &y, &kin, &contacts, Some(&mut jac)).unwrap();
+            prop_assert!(w.force.norm() > 0.0);
+            let jf: SMatrix<Real, 3, 13> = jac.fixed_rows::<3>(0).into_owned();
+            let jt: SMatrix<Real, 3, 13> = jac.fixed_rows::<3>(3).into_owned();
+            let m = body.mass_kg();
+            let r = column_check(&jf, &y, m, |yy| eval(&body, yy, &contacts).force);
+            prop_assert!(r.is_ok(), "force: {}", r.unwrap_err());
+            let r = column_check(&jt, &y, m, |yy| eval(&body, yy, &contacts).torque);
+            prop_assert!(r.is_ok(), "torque: {}", r.unwrap_err());
+        }
+
+        /// The normal force never pulls: n·F_k ≤ 0 for every contact, whatever the velocity.
+        #[test]
+        fn penalty_never_pulls(body in arb_body(), s in arb_raw_state(), raw in arb_raw_contacts()) {
+            let y = s.state_vector(&body);
+            let contacts = contacts_at(&body, &y, &raw);
+            for c in &contacts {
+                let w = eval(&body, &y, std::slice::from_ref(c));
+                prop_assert!(c.n.dot(&w.force) <= 0.0);
+                prop_assert!(w.force.cross(&c.n).norm() <= 1e-12 * w.force.norm().max(1e-300));
+            }
+        }
+    }
+
+    #[test]
+    fn force_matches_eq_33_at_rest() {
+        let body = RigidBody::sphere(0.1, 0.01).unwrap();
+        let tool = ToolState::at_rest(&haptic_core::Pose::identity());
+        let y = tool.to_vector();
+        // 0.5 mm deep, normal −z out of the tool (the floor is below).
+        let c = contacts_at(&body, &y, &[([0.0, 0.0, -0.01], [0.0, 0.0, -1.0], 0.5e-3)]);
+        let w = eval(&body, &y, &c);
+        // F = k_c (d + δ) pushing up; the contact point is under the centre: no torque.
+        approx::assert_relative_eq!(w.force, Vec3::new(0.0, 0.0, K_C * 1.5e-3), epsilon = 1e-9);
+        assert!(w.torque.norm() < 1e-12);
+        // Beyond δ: nothing.
+        let far = contacts_at(&body, &y, &[([0.0, 0.0, -0.01], [0.0, 0.0, -1.0], -0.5e-3)]);
+        let mut far = far[0];
+        far.p_b += 1e-3 * far.n; // 1.5 mm apart, beyond δ
+        assert_eq!(eval(&body, &y, &[far]).force, Vec3::zeros());
+    }
+
+    #[test]
+    fn bad_input_gives_typed_errors() {
+        assert!(matches!(
+            PenaltyParams::new(0.0, 1.0, 1e-3),
+            Err(DynamicsError::OutOfRange { .. })
+        ));
+        assert!(matches!(
+            PenaltyParams::new(1.0, -1.0, 1e-3),
+            Err(DynamicsError::OutOfRange { .. })
+        ));
+        assert!(matches!(
+            PenaltyParams::new(1.0, 1.0, Real::NAN),
+            Err(DynamicsError::NonFinite { .. })
+        ));
+        let body = RigidBody::sphere(0.1, 0.01).unwrap();
+        let y = ToolState::at_rest(&haptic_core::Pose::identity()).to_vector();
+        let kin = Kinematics::new(&body, &y);
+        let good = contacts_at(&body, &y, &[([0.0, 0.0, -0.01], [0.0, 0.0, -1.0], 0.0)])[0];
+        let mut nan = good;
+        nan.p_b.x = Real::NAN;
+        assert!(matches!(
+            model().evaluate(&body, &y, &kin, &[good, nan], None),
+            Err(ContactModelError::NonFiniteContact { index: 1, .. })
+        ));
+        let mut zero = good;
+        zero.n = Vec3::zeros();
+        assert!(matches!(
+            model().evaluate(&body, &y, &kin, &[zero], None),
+            Err(ContactModelError::BadNormal { index: 0, .. })
+        ));
+        let mut y_nan = y;
+        y_nan[IP] = Real::NAN;
+        assert!(matches!(
+            model().evaluate(&body, &y_nan, &kin, &[good], None),
+            Err(ContactModelError::NonFiniteState)
+        ));
+    }
+
+    /// The linearized model (eq. 42) has an error second order in `y − y₀`: the slope of
+    /// log(error) against log(‖y − y₀‖) is 2.
+    #[test]
+    fn linearization_error_is_second_order() {
+        let body = RigidBody::from_principal(0.05, [2e-5, 3e-5, 4e-5]).unwrap();
+        let mut tool = ToolState::at_rest(&haptic_core::Pose::identity());
+        tool.p = Vec3::new(0.001, -0.002, 0.0005);
+        tool.l = Vec3::new(1e-6, -2e-6, 1.5e-6);
+        let y0 = tool.to_vector();
+        let contacts = contacts_at(
+            &body,
+            &y0,
+            &[
+                ([0.02, 0.0, -0.01], [0.1, 0.0, -1.0], 0.4e-3),
+                ([-0.02, 0.01, -0.01], [-0.2, 0.1, -1.0], 0.2e-3),
+                ([0.0, -0.03, 0.0], [0.0, -1.0, 0.0], 0.1e-3),
+            ],
+        );
+        let mut lin = LinearizedContact::none();
+        model()
+            .linearize(&body, &tool, &contacts, &mut lin)
+            .unwrap();
+        // A fixed direction mixing every state component, scaled per component.
+        let mut dir = StateVector::zeros();
+        for j in 0..13 {
+            let scale = match j {
+                j if j < IQ => 1e-3,
+                j if j < IP => 1e-2,
+                j if j < IL => 1e-3 * body.mass_kg(),
+                _ => 1e-6,
+            };
+            dir[j] = scale * ((j as Real + 1.0) * 0.7).sin();
+        }
+        let (mut xs, mut es) = (Vec::new(), Vec::new());
+        for e in [1.0, 0.5, 0.25, 0.125, 0.0625, 0.03125] {
+            let y = y0 + dir * e;
+            let exact = eval(&body, &y, &contacts);
+            let approx = lin.wrench_at(&y, LinearizationMode::Linearized);
+            let err = (exact.to_vector() - approx.to_vector()).norm();
+            xs.push(Real::ln(e));
+            es.push(Real::ln(err));
+        }
+        // Least-squares slope of the log-log points.
+        let n = xs.len() as Real;
+        let (mx, me) = (xs.iter().sum::<Real>() / n, es.iter().sum::<Real>() / n);
+        let slope = xs
+            .iter()
+            .zip(&es)
+            .map(|(x, e)| (x - mx) * (e - me))
+            .sum::<Real>()
+            / xs.iter().map(|x| (x - mx).powi(2)).sum::<Real>();
+        println!("linearization error slope {slope:.3}");
+        assert!((slope - 2.0).abs() < 0.1, "slope {slope}");
+        // And held constant (the ablation) the error is first order.
+        let held = |e: Real| {
+            let y = y0 + dir * e;
+            (eval(&body, &y, &contacts).to_vector()
+                - lin.wrench_at(&y, LinearizationMode::Constant).to_vector())
+            .norm()
+        };
+        let ratio = held(0.1) / held(0.05);
+        assert!((ratio - 2.0).abs() < 0.2, "constant-mode ratio {ratio}");
+    }
+}
