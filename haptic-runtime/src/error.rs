@@ -1,0 +1,49 @@
+//! Errors of the runtime.
+
+use haptic_core::DeviceErrorKind;
+
+use crate::telemetry::Summary;
+
+/// What can stop or prevent a run.
+#[derive(Debug, thiserror::Error)]
+#[non_exhaustive]
+pub enum RuntimeError {
+    /// The device failed (disconnected, timed out): zero force was commanded and the run stopped.
+    /// The telemetry of the run up to that point is attached.
+    #[error("device error ({kind:?}): {message}")]
+    Device {
+        /// Kind of the failure.
+        kind: DeviceErrorKind,
+        /// The device's own message.
+        message: String,
+        /// Telemetry up to the failure.
+        summary: Box<Summary>,
+    },
+    /// A configuration value is out of range.
+    #[error("invalid configuration `{field}`: {reason}")]
+    Config {
+        /// The field, as named in the scene file or the config struct.
+        field: String,
+        /// Why it is invalid.
+        reason: String,
+    },
+    /// The scene could not be loaded.
+    #[error(transparent)]
+    Scene(#[from] crate::scene::SceneError),
+    /// The initial state could not be set up (a grasp on a NaN pose, say).
+    #[error("set-up failed: {0}")]
+    Setup(String),
+    /// A thread could not be spawned or joined.
+    #[error("thread failure: {0}")]
+    Thread(String),
+}
+
+impl RuntimeError {
+    /// A configuration error naming its field.
+    pub fn config(field: impl Into<String>, reason: impl Into<String>) -> Self {
+        Self::Config {
+            field: field.into(),
+            reason: reason.into(),
+        }
+    }
+}

@@ -1,0 +1,692 @@
+//! The pipeline: a builder that composes an [`Integrator`], a [`CollisionBackend`], a
+//! [`ContactModel`] (with clustering) and a [`Device`], and the two ways to run it.
+
+use std::panic::{AssertUnwindSafe, catch_unwind};
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::time::{Duration, Instant};
+
+use haptic_cluster::{ClusterParams, Clusterer};
+use haptic_core::{
+    CollisionBackend, ContactModel, Device, Integrator, LinearizationMode, Pose, QueryParams, Real,
+    RigidBody, ToolState, Vec3,
+};
+use haptic_dynamics::coupling::{CouplingParams, Grasp, VirtualCoupling};
+use haptic_dynamics::forces::HapticForces;
+
+use crate::error::RuntimeError;
+use crate::stages::{ContactStage, ContactUpdate, HapticStage, SafetyConfig, ToolMessage};
+use crate::telemetry::{DurationHistogram, LiveTelemetry, Snapshot, Summary};
+
+/// Rates, tolerances and switches of a pipeline.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct PipelineConfig {
+    /// Haptic rate (Hz): 1 kHz by default, up to 10 kHz.
+    pub haptic_rate_hz: Real,
+    /// Collision query parameters: distance tolerance `δ` and error threshold.
+    pub query: QueryParams,
+    /// Clustering parameters (K, iteration cap).
+    pub cluster: ClusterParams,
+    /// Linearized contact model, or forces held constant between updates (the ablation).
+    pub linearization: LinearizationMode,
+    /// Gravity (m/s²), `None` for a gravity-compensated tool (the default).
+    pub gravity: Option<Vec3>,
+    /// Safety settings.
+    pub safety: SafetyConfig,
+    /// Try to raise the haptic thread's priority and pin the threads to cores.
+    pub realtime_scheduling: bool,
+}
+
+impl Default for PipelineConfig {
+    fn default() -> Self {
+        Self {
+            haptic_rate_hz: 1000.0,
+            query: QueryParams {
+                delta_m: 1e-3,
+                error_threshold: 0.0,
+            },
+            cluster: ClusterParams::default(),
+            linearization: LinearizationMode::Linearized,
+            gravity: None,
+            safety: SafetyConfig::default(),
+            realtime_scheduling: true,
+        }
+    }
+}
+
+impl PipelineConfig {
+    /// Checks every field.
+    ///
+    /// # Errors
+    /// [`RuntimeError::Config`] naming the field.
+    pub fn validate(&self) -> Result<(), RuntimeError> {
+        if !(self.haptic_rate_hz.is_finite()
+            && self.haptic_rate_hz > 0.0
+            && self.haptic_rate_hz <= 20_000.0)
+        {
+            return Err(RuntimeError::config(
+                "haptic_rate_hz",
+                "must be in (0, 20000] Hz",
+            ));
+        }
+        QueryParams::new(self.query.delta_m, self.query.error_threshold)
+            .map_err(|e| RuntimeError::config("query", e.to_string()))?;
+        let s = &self.safety;
+        for (field, v) in [
+            ("safety.contact_timeout_s", s.contact_timeout_s),
+            ("safety.contact_fade_s", s.contact_fade_s),
+            ("safety.divergence_bound_m", s.divergence_bound_m),
+        ] {
+            if !(v.is_finite() && v > 0.0) {
+                return Err(RuntimeError::config(field, "must be positive and finite"));
+            }
+        }
+        if let Some(g) = self.gravity {
+            if !g.iter().all(|c| c.is_finite()) {
+                return Err(RuntimeError::config("gravity", "must be finite"));
+            }
+        }
+        Ok(())
+    }
+}
+
+/// When a contact update computed in virtual time takes effect.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum ContactLatency {
+    /// The contact thread delivers at a fixed rate (Hz): each update becomes available
+    /// `1 / rate_hz` after the state it was computed from. Bit-for-bit reproducible.
+    FixedRate {
+        /// Contact updates per simulated second.
+        rate_hz: Real,
+    },
+    /// Each update becomes available after the wall-clock cost of its own computation times
+    /// `scale` (at least `min_s`): the measured contact rate of this machine, slowed down by
+    /// `scale` to stand for a slower one. Not bit-reproducible, since it depends on timing.
+    Measured {
+        /// Factor on the measured cost.
+        scale: Real,
+        /// Smallest latency (s).
+        min_s: Real,
+    },
+}
+
+/// A typestate builder: each part is set once, and `build` exists only when all four are.
+pub struct PipelineBuilder<I, B, C, D> {
+    body: RigidBody,
+    tool_pose: Pose,
+    coupling: CouplingParams,
+    config: PipelineConfig,
+    integrator: I,
+    backend: B,
+    contact_model: C,
+    device: D,
+}
+
+impl PipelineBuilder<(), (), (), ()> {
+    /// Starts a pipeline for a tool of mass properties `body` whose centre-of-mass frame starts at
+    /// `tool_pose`; it is grasped where the device handle is at the first reading.
+    pub fn new(body: RigidBody, tool_pose: Pose) -> Self {
+        Self {
+            body,
+            tool_pose,
+            coupling: CouplingParams::default(),
+            config: PipelineConfig::default(),
+            integrator: (),
+            backend: (),
+            contact_model: (),
+            device: (),
+        }
+    }
+}
+
+impl<I, B, C, D> PipelineBuilder<I, B, C, D> {
+    /// The integrator.
+    pub fn integrator<I2: Integrator>(self, integrator: I2) -> PipelineBuilder<I2, B, C, D> {
+        PipelineBuilder {
+            body: self.body,
+            tool_pose: self.tool_pose,
+            coupling: self.coupling,
+            config: self.config,
+            integrator,
+            backend: self.backend,
+            contact_model: self.contact_model,
+            device: self.device,
+        }
+    }
+
+    /// The collision back-end.
+    pub fn backend<B2: CollisionBackend>(self, backend: B2) -> PipelineBuilder<I, B2, C, D> {
+        PipelineBuilder {
+            body: self.body,
+            tool_pose: self.tool_pose,
+            coupling: self.coupling,
+            config: self.config,
+            integrator: self.integrator,
+            backend,
+            contact_model: self.contact_model,
+            device: self.device,
+        }
+    }
+
+    /// The contact model (applied to cluster representatives).
+    pub fn contact_model<C2: ContactModel>(
+        self,
+        contact_model: C2,
+    ) -> PipelineBuilder<I, B, C2, D> {
+        PipelineBuilder {
+            body: self.body,
+            tool_pose: self.tool_pose,
+            coupling: self.coupling,
+            config: self.config,
+            integrator: self.integrator,
+            backend: self.backend,
+            contact_model,
+            device: self.device,
+        }
+    }
+
+    /// The device.
+    pub fn device<D2: Device>(self, device: D2) -> PipelineBuilder<I, B, C, D2> {
+        PipelineBuilder {
+            body: self.body,
+            tool_pose: self.tool_pose,
+            coupling: self.coupling,
+            config: self.config,
+            integrator: self.integrator,
+            backend: self.backend,
+            contact_model: self.contact_model,
+            device,
+        }
+    }
+
+    /// The virtual coupling parameters.
+    pub fn coupling(mut self, coupling: CouplingParams) -> Self {
+        self.coupling = coupling;
+        self
+    }
+
+    /// Rates, tolerances and switches.
+    pub fn config(mut self, config: PipelineConfig) -> Self {
+        self.config = config;
+        self
+    }
+}
+
+impl<I: Integrator, B: CollisionBackend, C: ContactModel, D: Device> PipelineBuilder<I, B, C, D> {
+    /// Reads the device once, grasps the tool, and assembles the pipeline.
+    ///
+    /// # Errors
+    /// [`RuntimeError::Config`] for a bad configuration, [`RuntimeError::Device`] if the first
+    /// reading fails, [`RuntimeError::Setup`] if the grasp cannot be made.
+    pub fn build(mut self) -> Result<Pipeline<I, B, C, D>, RuntimeError> {
+        self.config.validate()?;
+        let first = self.device.read(0.0).map_err(|e| RuntimeError::Device {
+            kind: haptic_core::DeviceError::kind(&e),
+            message: e.to_string(),
+            summary: Box::default(),
+        })?;
+        if !first.is_finite() {
+            return Err(RuntimeError::Setup(
+                "the first device reading is not finite".into(),
+            ));
+        }
+        let tool = ToolState::at_rest(&self.tool_pose);
+        let setup = |e: haptic_dynamics::DynamicsError| RuntimeError::Setup(e.to_string());
+        let grasp = Grasp::new(&tool, &first.pose).map_err(setup)?;
+        let coupling = VirtualCoupling::new(self.coupling, grasp, &first).map_err(setup)?;
+        let forces = HapticForces {
+            coupling,
+            contact: haptic_core::LinearizedContact::none(),
+            mode: self.config.linearization,
+            gravity: self.config.gravity,
+        };
+        let clusterer = Clusterer::new(self.config.cluster)
+            .map_err(|e| RuntimeError::config("cluster", e.to_string()))?;
+        Ok(Pipeline {
+            haptic: HapticStage::new(
+                self.integrator,
+                self.device,
+                self.body,
+                forces,
+                tool,
+                self.config.safety,
+            ),
+            contact: ContactStage::new(
+                self.backend,
+                self.contact_model,
+                clusterer,
+                self.body,
+                self.config.query,
+            ),
+            config: self.config,
+            live: LiveTelemetry::default(),
+        })
+    }
+}
+
+/// Contact-side statistics of a run.
+#[derive(Debug, Clone, Default)]
+struct ContactStats {
+    updates: u64,
+    latency: DurationHistogram,
+    broad_phase_only: u64,
+    raw_max: u64,
+    clusters_max: u64,
+    max_penetration_m: Real,
+    errors: u64,
+    first_error: Option<String>,
+    panicked: Option<String>,
+    first_update_s: Option<Real>,
+    last_update_s: Real,
+}
+
+impl ContactStats {
+    fn record(&mut self, u: &ContactUpdate, latency_s: Real, available_s: Real) {
+        self.updates += 1;
+        self.latency.record(latency_s);
+        if u.broad_phase_only {
+            self.broad_phase_only += 1;
+        }
+        self.raw_max = self.raw_max.max(u.raw_contacts as u64);
+        self.clusters_max = self.clusters_max.max(u.clusters as u64);
+        self.max_penetration_m = self.max_penetration_m.max(u.max_penetration_m);
+        self.first_update_s.get_or_insert(available_s);
+        self.last_update_s = available_s;
+    }
+
+    fn rate_hz(&self, duration_s: Real) -> Real {
+        if duration_s > 0.0 {
+            self.updates as Real / duration_s
+        } else {
+            0.0
+        }
+    }
+}
+
+/// A composed pipeline, ready to run in real time or in virtual time.
+///
+/// The haptic loop is generic over all four parts: static dispatch, no allocation, no lock.
+pub struct Pipeline<I, B, C, D> {
+    haptic: HapticStage<I, D>,
+    contact: ContactStage<B, C>,
+    config: PipelineConfig,
+    live: LiveTelemetry,
+}
+
+impl<I: Integrator, B: CollisionBackend, C: ContactModel, D: Device> Pipeline<I, B, C, D> {
+    /// The haptic stage (tool state, device, statistics).
+    pub fn haptic(&self) -> &HapticStage<I, D> {
+        &self.haptic
+    }
+
+    /// The haptic stage, mutably.
+    pub fn haptic_mut(&mut self) -> &mut HapticStage<I, D> {
+        &mut self.haptic
+    }
+
+    /// The contact stage.
+    pub fn contact(&self) -> &ContactStage<B, C> {
+        &self.contact
+    }
+
+    /// The configuration.
+    pub fn config(&self) -> &PipelineConfig {
+        &self.config
+    }
+
+    /// Live counters, readable while running.
+    pub fn live(&self) -> Snapshot {
+        self.live.snapshot()
+    }
+
+    /// Runs `duration_s` of simulated time, single-threaded and deterministic: the same pipeline
+    /// stepped at the haptic rate, with each contact update taking effect after `latency`.
+    /// `observe` is called after every haptic step (for recording series); pass `|_, _| {}` for
+    /// none.
+    ///
+    /// # Errors
+    /// [`RuntimeError::Device`] if the device fails (zero force has been commanded).
+    pub fn run_virtual(
+        &mut self,
+        duration_s: Real,
+        latency: ContactLatency,
+        mut observe: impl FnMut(Real, &HapticStage<I, D>),
+    ) -> Result<Summary, RuntimeError> {
+        let dt = 1.0 / self.config.haptic_rate_hz;
+        let steps = (duration_s / dt).round().max(0.0) as u64;
+        let mut stats = ContactStats::default();
+        let mut pending: Option<(Real, Real, ContactUpdate)> = None; // (start, ready, update)
+        let mut next_start_s = 0.0;
+        let mut failure = None;
+        for k in 0..steps {
+            let t = k as Real * dt;
+            if let Some((start, ready, update)) = pending {
+                if ready <= t + 1e-12 {
+                    self.haptic.receive_contact(&update, t);
+                    stats.record(&update, ready - start, t);
+                    pending = None;
+                    next_start_s = ready;
+                }
+            }
+            if pending.is_none() && t + 1e-12 >= next_start_s {
+                let tool = *self.haptic.tool();
+                let started = Instant::now();
+                let result = self.contact.update(&tool, t);
+                let cost_s = started.elapsed().as_secs_f64();
+                let delay = match latency {
+                    ContactLatency::FixedRate { rate_hz } => 1.0 / rate_hz,
+                    ContactLatency::Measured { scale, min_s } => (cost_s * scale).max(min_s),
+                };
+                match result {
+                    Ok(update) => pending = Some((t, t + delay, update)),
+                    Err(e) => {
+                        stats.errors += 1;
+                        stats.first_error.get_or_insert_with(|| e.to_string());
+                        next_start_s = t + delay;
+                    }
+                }
+            }
+            let started = Instant::now();
+            let outcome = self.haptic.step(t, dt);
+            self.haptic
+                .stats
+                .step_time
+                .record(started.elapsed().as_secs_f64());
+            if let Err(f) = outcome {
+                failure = Some(f);
+                break;
+            }
+            observe(t + dt, &self.haptic);
+        }
+        let simulated = self.haptic.stats.steps as Real * dt;
+        let mut summary = self.summarize("virtual-time", simulated, &stats);
+        summary.scheduling = "virtual time: single thread".into();
+        match failure {
+            Some(f) => Err(RuntimeError::Device {
+                kind: f.kind,
+                message: f.message,
+                summary: Box::new(summary),
+            }),
+            None => Ok(summary),
+        }
+    }
+
+    fn summarize(&self, mode: &str, duration_s: Real, c: &ContactStats) -> Summary {
+        let h = &self.haptic.stats;
+        let mut incidents = Vec::new();
+        if let Some(p) = &c.panicked {
+            incidents.push(format!(
+                "contact thread panicked: {p}; contact forces faded out"
+            ));
+        }
+        if c.errors > 0 {
+            incidents.push(format!(
+                "{} contact updates failed (first: {})",
+                c.errors,
+                c.first_error.clone().unwrap_or_default()
+            ));
+        }
+        if h.stale_steps > 0 {
+            incidents.push(format!(
+                "contact model older than {:.0} ms during {} haptic steps: contact forces faded",
+                self.config.safety.contact_timeout_s * 1e3,
+                h.stale_steps
+            ));
+        }
+        if h.divergences > 0 {
+            incidents.push(format!(
+                "tool diverged {} times and was put back at the handle",
+                h.divergences
+            ));
+        }
+        if h.solver_failures > 0 {
+            incidents.push(format!(
+                "{} integration steps failed: zero force sent",
+                h.solver_failures
+            ));
+        }
+        if h.nan_events > h.solver_failures {
+            incidents.push(format!(
+                "{} device readings were NaN or invalid: zero force sent",
+                h.nan_events - h.solver_failures
+            ));
+        }
+        Summary {
+            mode: mode.into(),
+            duration_s,
+            haptic_steps: h.steps,
+            haptic_rate_hz: if duration_s > 0.0 {
+                h.steps as Real / duration_s
+            } else {
+                0.0
+            },
+            step_p50_s: h.step_time.quantile_s(0.5),
+            step_p99_s: h.step_time.quantile_s(0.99),
+            step_p999_s: h.step_time.quantile_s(0.999),
+            step_max_s: h.step_time.max_s(),
+            deadline_misses: self.live.deadline_misses.load(Ordering::Relaxed),
+            contact_updates: c.updates,
+            contact_rate_hz: c.rate_hz(duration_s),
+            contact_latency_p50_s: c.latency.quantile_s(0.5),
+            contact_latency_max_s: c.latency.max_s(),
+            broad_phase_only_queries: c.broad_phase_only,
+            raw_contacts_max: c.raw_max,
+            clusters_max: c.clusters_max,
+            max_penetration_m: c.max_penetration_m,
+            max_coupling_deviation_m: h.max_coupling_deviation_m,
+            max_force_n: h.max_force_n,
+            saturation_events: h.saturation_events,
+            nan_events: h.nan_events,
+            solver_failures: h.solver_failures,
+            contact_errors: c.errors,
+            contact_stale_steps: h.stale_steps,
+            contact_thread_panicked: c.panicked.is_some(),
+            incidents,
+            scheduling: String::new(),
+        }
+    }
+}
+
+/// Tries to raise the current thread's priority and pin it to `core`; says what happened.
+fn apply_scheduling(core: Option<usize>, max_priority: bool) -> String {
+    let mut notes = Vec::new();
+    if let Some(core) = core {
+        let pinned = core_affinity::get_core_ids()
+            .and_then(|ids| ids.get(core).copied())
+            .map(core_affinity::set_for_current)
+            .unwrap_or(false);
+        notes.push(if pinned {
+            format!("pinned to core {core}")
+        } else {
+            format!("could not pin to core {core}")
+        });
+    }
+    if max_priority {
+        match thread_priority::set_current_thread_priority(thread_priority::ThreadPriority::Max) {
+            Ok(()) => notes.push("maximum priority".into()),
+            Err(e) => notes.push(format!("priority not raised ({e:?})")),
+        }
+    }
+    notes.join(", ")
+}
+
+impl<I, B, C, D> Pipeline<I, B, C, D>
+where
+    I: Integrator + Send,
+    B: CollisionBackend + Send,
+    C: ContactModel + Send,
+    D: Device + Send,
+{
+    /// Runs `duration_s` of wall time: the haptic thread at the fixed haptic rate, the contact
+    /// thread as fast as it can, exchanging the latest tool state and the latest linearized
+    /// contact model through lock-free single-slot (triple) buffers. The calling thread watches
+    /// and calls `progress` about ten times a second with a live snapshot.
+    ///
+    /// If the contact thread stalls or panics, the haptic thread keeps its rate on the last
+    /// model and fades contact forces out after the timeout; the summary says what happened.
+    ///
+    /// # Errors
+    /// [`RuntimeError::Device`] if the device fails (zero force has been commanded).
+    pub fn run_realtime(
+        &mut self,
+        duration_s: Real,
+        mut progress: impl FnMut(&Snapshot),
+    ) -> Result<Summary, RuntimeError> {
+        let dt = 1.0 / self.config.haptic_rate_hz;
+        let steps = (duration_s / dt).round().max(0.0) as u64;
+        let (mut tool_in, mut tool_out) = triple_buffer::triple_buffer(&ToolMessage {
+            seq: 0,
+            time_s: 0.0,
+            state: *self.haptic.tool(),
+        });
+        let (mut contact_in, mut contact_out) =
+            triple_buffer::triple_buffer(&(ContactUpdate::none(), 0.0 as Real));
+        let stop = AtomicBool::new(false);
+        let scheduling_wanted = self.config.realtime_scheduling;
+        let live = &self.live;
+        let haptic = &mut self.haptic;
+        let contact = &mut self.contact;
+        let start = Instant::now();
+        let (failure, contact_stats, notes) = std::thread::scope(|s| {
+            let stop = &stop;
+            let contact_thread = s.spawn(move || {
+                let note = if scheduling_wanted {
+                    apply_scheduling(Some(0), false)
+                } else {
+                    String::new()
+                };
+                let mut stats = ContactStats::default();
+                let mut last_seq = 0;
+                while !stop.load(Ordering::Acquire) {
+                    tool_out.update();
+                    let msg = *tool_out.output_buffer();
+                    if msg.seq == last_seq {
+                        std::thread::sleep(Duration::from_micros(20));
+                        continue;
+                    }
+                    last_seq = msg.seq;
+                    let started = Instant::now();
+                    match catch_unwind(AssertUnwindSafe(|| contact.update(&msg.state, msg.time_s)))
+                    {
+                        Ok(Ok(update)) => {
+                            let latency = started.elapsed().as_secs_f64();
+                            let now = start.elapsed().as_secs_f64();
+                            contact_in.write((update, latency));
+                            stats.record(&update, latency, now);
+                            live.contact_updates.fetch_add(1, Ordering::Relaxed);
+                            live.raw_contacts
+                                .store(update.raw_contacts as u64, Ordering::Relaxed);
+                            live.clusters
+                                .store(update.clusters as u64, Ordering::Relaxed);
+                            live.max_penetration_m.store(stats.max_penetration_m);
+                        }
+                        Ok(Err(e)) => {
+                            stats.errors += 1;
+                            stats.first_error.get_or_insert_with(|| e.to_string());
+                        }
+                        Err(panic) => {
+                            let msg = panic
+                                .downcast_ref::<&str>()
+                                .map(|s| s.to_string())
+                                .or_else(|| panic.downcast_ref::<String>().cloned())
+                                .unwrap_or_else(|| "unknown panic".into());
+                            stats.panicked = Some(msg);
+                            live.contact_thread_dead.store(true, Ordering::Release);
+                            break;
+                        }
+                    }
+                }
+                (stats, note)
+            });
+            let haptic_thread = s.spawn(move || {
+                let note = if scheduling_wanted {
+                    apply_scheduling(Some(1), true)
+                } else {
+                    String::new()
+                };
+                let period = Duration::from_secs_f64(dt);
+                let t0 = Instant::now();
+                let mut failure = None;
+                for k in 0..steps {
+                    let deadline = t0 + period * (k as u32 + 1);
+                    let now_s = t0.elapsed().as_secs_f64();
+                    if contact_out.update() {
+                        let (update, _) = *contact_out.output_buffer();
+                        haptic.receive_contact(&update, now_s);
+                    }
+                    let started = Instant::now();
+                    let outcome = haptic.step(now_s, dt);
+                    haptic
+                        .stats
+                        .step_time
+                        .record(started.elapsed().as_secs_f64());
+                    if let Err(f) = outcome {
+                        failure = Some(f);
+                        break;
+                    }
+                    tool_in.write(ToolMessage {
+                        seq: k + 1,
+                        time_s: now_s,
+                        state: *haptic.tool(),
+                    });
+                    live.haptic_steps.store(k + 1, Ordering::Relaxed);
+                    live.time_s.store(now_s);
+                    live.max_force_n.store(haptic.stats.max_force_n);
+                    live.nan_events
+                        .store(haptic.stats.nan_events, Ordering::Relaxed);
+                    let after = Instant::now();
+                    if after > deadline {
+                        live.deadline_misses.fetch_add(1, Ordering::Relaxed);
+                        continue;
+                    }
+                    // Sleep coarsely, then spin for the last stretch.
+                    let remaining = deadline - after;
+                    if remaining > Duration::from_micros(300) {
+                        std::thread::sleep(remaining - Duration::from_micros(200));
+                    }
+                    while Instant::now() < deadline {
+                        std::hint::spin_loop();
+                    }
+                }
+                haptic.shutdown();
+                stop.store(true, Ordering::Release);
+                (failure, note)
+            });
+            while !haptic_thread.is_finished() {
+                progress(&live.snapshot());
+                std::thread::sleep(Duration::from_millis(100));
+            }
+            let (failure, haptic_note) = haptic_thread
+                .join()
+                .unwrap_or((None, "haptic thread panicked".to_string()));
+            stop.store(true, Ordering::Release);
+            let (contact_stats, contact_note) = contact_thread.join().unwrap_or_else(|_| {
+                let stats = ContactStats {
+                    panicked: Some("contact thread could not be joined".into()),
+                    ..ContactStats::default()
+                };
+                (stats, String::new())
+            });
+            (
+                failure,
+                contact_stats,
+                format!("haptic thread: {haptic_note}; contact thread: {contact_note}"),
+            )
+        });
+        progress(&self.live.snapshot());
+        let elapsed = start.elapsed().as_secs_f64();
+        let mut summary = self.summarize("real-time", elapsed, &contact_stats);
+        summary.scheduling = if scheduling_wanted {
+            notes
+        } else {
+            "not requested".into()
+        };
+        match failure {
+            Some(f) => Err(RuntimeError::Device {
+                kind: f.kind,
+                message: f.message,
+                summary: Box::new(summary),
+            }),
+            None => Ok(summary),
+        }
+    }
+}

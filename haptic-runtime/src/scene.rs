@@ -1,0 +1,650 @@
+//! Scenes: what is simulated, described in code or in a TOML file.
+//!
+//! ```toml
+//! name = "spoon in cup"
+//!
+//! [tool]
+//! mesh = "../shared/meshes/newell_teaspoon.stl"   # relative to the scene file
+//! scale_m_per_unit = 1.0
+//! mass_kg = 0.01
+//! pose = { position_m = [0.0, 0.12, 0.0], rotation_axis_angle_rad = [0.0, 0.0, 0.0] }
+//!
+//! [[obstacles]]
+//! mesh = "../shared/meshes/newell_teacup.stl"
+//!
+//! [coupling]
+//! stiffness_n_per_m = 200.0
+//! angular_stiffness_nm_per_rad = 0.6
+//!
+//! [contact]
+//! stiffness_n_per_m = 2000.0
+//! delta_m = 0.001
+//! clusters = 5
+//! error_threshold = 0.0
+//! linearized = true
+//!
+//! [rates]
+//! haptic_hz = 1000.0
+//!
+//! [[device.waypoints]]
+//! time_s = 0.0
+//! position_m = [0.0, 0.12, 0.0]
+//! ```
+//!
+//! Every field but `tool.mesh` and `tool.mass_kg` has a default. Unknown fields are rejected, and
+//! every error names the field it is about.
+
+use std::path::{Path, PathBuf};
+
+use haptic_core::{Pose, Real, Vec3};
+use nalgebra::UnitQuaternion;
+use serde::Deserialize;
+
+/// A scene could not be read or is invalid.
+#[derive(Debug, thiserror::Error)]
+#[non_exhaustive]
+pub enum SceneError {
+    /// The file could not be read.
+    #[error("cannot read scene {path}: {message}")]
+    Io {
+        /// The file.
+        path: PathBuf,
+        /// The OS error.
+        message: String,
+    },
+    /// The TOML is malformed, has an unknown field, or a field of the wrong type; the message
+    /// names the field and the line.
+    #[error("bad scene file: {0}")]
+    Parse(String),
+    /// A field has a value out of range.
+    #[error("scene field `{field}`: {reason}")]
+    Invalid {
+        /// The field, as a dotted path (`tool.mass_kg`).
+        field: String,
+        /// Why it is invalid.
+        reason: String,
+    },
+}
+
+fn invalid(field: impl Into<String>, reason: impl Into<String>) -> SceneError {
+    SceneError::Invalid {
+        field: field.into(),
+        reason: reason.into(),
+    }
+}
+
+/// A pose as written in a scene: position (m) and rotation vector (axis × angle, rad).
+#[derive(Debug, Clone, Copy, PartialEq, Deserialize, Default)]
+#[serde(deny_unknown_fields)]
+pub struct PoseSpec {
+    /// Position, m.
+    #[serde(default)]
+    pub position_m: [Real; 3],
+    /// Rotation vector, rad.
+    #[serde(default)]
+    pub rotation_axis_angle_rad: [Real; 3],
+}
+
+impl PoseSpec {
+    /// A pose from position and rotation vector.
+    pub fn new(position_m: [Real; 3], rotation_axis_angle_rad: [Real; 3]) -> Self {
+        Self {
+            position_m,
+            rotation_axis_angle_rad,
+        }
+    }
+
+    /// The pose.
+    pub fn pose(&self) -> Pose {
+        Pose {
+            position: Vec3::from(self.position_m),
+            orientation: UnitQuaternion::from_scaled_axis(Vec3::from(self.rotation_axis_angle_rad)),
+        }
+    }
+
+    fn validate(&self, field: &str) -> Result<(), SceneError> {
+        if self
+            .position_m
+            .iter()
+            .chain(&self.rotation_axis_angle_rad)
+            .any(|v| !v.is_finite())
+        {
+            return Err(invalid(field, "must be finite"));
+        }
+        Ok(())
+    }
+}
+
+fn one() -> Real {
+    1.0
+}
+
+/// The tool.
+#[derive(Debug, Clone, PartialEq, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct ToolSpec {
+    /// Mesh file (STL, OBJ, PLY), relative to the scene file.
+    pub mesh: PathBuf,
+    /// Metres per file unit (0.001 for millimetres).
+    #[serde(default = "one")]
+    pub scale_m_per_unit: Real,
+    /// Mass, kg; the inertia is that of a uniform solid of the mesh's shape.
+    pub mass_kg: Real,
+    /// Initial pose of the tool's centre-of-mass frame (the mesh is recentred on its centre of
+    /// mass).
+    #[serde(default)]
+    pub pose: PoseSpec,
+}
+
+/// A static obstacle.
+#[derive(Debug, Clone, PartialEq, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct ObstacleSpec {
+    /// Mesh file, relative to the scene file.
+    pub mesh: PathBuf,
+    /// Metres per file unit.
+    #[serde(default = "one")]
+    pub scale_m_per_unit: Real,
+    /// Where the mesh's own frame is placed in the world.
+    #[serde(default)]
+    pub pose: PoseSpec,
+}
+
+/// Virtual coupling parameters (eqs. 13–27).
+#[derive(Debug, Clone, Copy, PartialEq, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct CouplingSpec {
+    /// k, N/m.
+    pub stiffness_n_per_m: Real,
+    /// b, N s/m; `None` picks the default damping of `haptic-dynamics`.
+    pub damping_ns_per_m: Option<Real>,
+    /// k_θ, N m/rad.
+    pub angular_stiffness_nm_per_rad: Real,
+    /// b_θ, N m s/rad; `None` picks the default.
+    pub angular_damping_nms_per_rad: Option<Real>,
+}
+
+impl Default for CouplingSpec {
+    fn default() -> Self {
+        Self {
+            stiffness_n_per_m: 200.0,
+            damping_ns_per_m: None,
+            angular_stiffness_nm_per_rad: 0.6,
+            angular_damping_nms_per_rad: None,
+        }
+    }
+}
+
+/// Contact parameters.
+#[derive(Debug, Clone, Copy, PartialEq, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct ContactSpec {
+    /// Penalty stiffness k_c, N/m.
+    pub stiffness_n_per_m: Real,
+    /// Penalty damping b_c, N s/m; `None` picks the default.
+    pub damping_ns_per_m: Option<Real>,
+    /// Distance tolerance δ (pre-contact), m.
+    pub delta_m: Real,
+    /// K, the most clusters.
+    pub clusters: usize,
+    /// Error threshold of the multiresolution collision detection (fraction of the radius).
+    pub error_threshold: Real,
+    /// Linearized contact model (true) or forces held constant between updates.
+    pub linearized: bool,
+}
+
+impl Default for ContactSpec {
+    fn default() -> Self {
+        Self {
+            stiffness_n_per_m: 2000.0,
+            damping_ns_per_m: None,
+            delta_m: 1e-3,
+            clusters: 5,
+            error_threshold: 0.0,
+            linearized: true,
+        }
+    }
+}
+
+/// Rates.
+#[derive(Debug, Clone, Copy, PartialEq, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct RateSpec {
+    /// Haptic rate, Hz.
+    pub haptic_hz: Real,
+    /// Contact rate in virtual time, Hz; `None` uses the measured cost of each query.
+    pub contact_hz: Option<Real>,
+}
+
+impl Default for RateSpec {
+    fn default() -> Self {
+        Self {
+            haptic_hz: 1000.0,
+            contact_hz: None,
+        }
+    }
+}
+
+/// A waypoint of the simulated hand's target trajectory.
+#[derive(Debug, Clone, Copy, PartialEq, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct WaypointSpec {
+    /// Time, s.
+    pub time_s: Real,
+    /// Target handle position, m.
+    pub position_m: [Real; 3],
+    /// Target handle rotation vector, rad.
+    #[serde(default)]
+    pub rotation_axis_angle_rad: [Real; 3],
+}
+
+/// The simulated user's device.
+#[derive(Debug, Clone, PartialEq, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct DeviceSpec {
+    /// Target trajectory of the simulated hand (minimum-jerk between waypoints); empty keeps the
+    /// handle where the tool starts.
+    pub waypoints: Vec<WaypointSpec>,
+    /// Largest force the device renders (N); wrenches beyond are clamped and counted.
+    pub max_force_n: Real,
+    /// Largest torque the device renders (N m).
+    pub max_torque_nm: Real,
+    /// Half the side of the cubic workspace around the first handle position (m).
+    pub workspace_half_m: Real,
+}
+
+impl Default for DeviceSpec {
+    /// No waypoints; 10 N, 1 N m (a desktop 6-DOF device), a 0.5 m workspace.
+    fn default() -> Self {
+        Self {
+            waypoints: Vec::new(),
+            max_force_n: 10.0,
+            max_torque_nm: 1.0,
+            workspace_half_m: 0.5,
+        }
+    }
+}
+
+/// A whole scene.
+#[derive(Debug, Clone, PartialEq, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Scene {
+    /// Name, for reports.
+    #[serde(default)]
+    pub name: String,
+    /// The tool.
+    pub tool: ToolSpec,
+    /// Static obstacles.
+    #[serde(default)]
+    pub obstacles: Vec<ObstacleSpec>,
+    /// Virtual coupling.
+    #[serde(default)]
+    pub coupling: CouplingSpec,
+    /// Contacts.
+    #[serde(default)]
+    pub contact: ContactSpec,
+    /// Rates.
+    #[serde(default)]
+    pub rates: RateSpec,
+    /// The device.
+    #[serde(default)]
+    pub device: DeviceSpec,
+}
+
+impl Scene {
+    /// Parses a scene from TOML text; relative mesh paths are resolved against `base_dir`.
+    ///
+    /// # Errors
+    /// [`SceneError::Parse`] (the message names the field and line) or
+    /// [`SceneError::Invalid`] naming the field.
+    pub fn from_toml_str(text: &str, base_dir: &Path) -> Result<Self, SceneError> {
+        let mut scene: Scene =
+            toml::from_str(text).map_err(|e| SceneError::Parse(e.to_string()))?;
+        let resolve = |p: &mut PathBuf| {
+            if p.is_relative() {
+                *p = base_dir.join(&*p);
+            }
+        };
+        resolve(&mut scene.tool.mesh);
+        for o in &mut scene.obstacles {
+            resolve(&mut o.mesh);
+        }
+        scene.validate()?;
+        Ok(scene)
+    }
+
+    /// Reads a scene file.
+    ///
+    /// # Errors
+    /// [`SceneError::Io`], and as [`Scene::from_toml_str`].
+    pub fn load(path: &Path) -> Result<Self, SceneError> {
+        let text = std::fs::read_to_string(path).map_err(|e| SceneError::Io {
+            path: path.to_path_buf(),
+            message: e.to_string(),
+        })?;
+        let base = path.parent().unwrap_or_else(|| Path::new("."));
+        Self::from_toml_str(&text, base)
+    }
+
+    /// Checks every field.
+    ///
+    /// # Errors
+    /// [`SceneError::Invalid`] naming the first bad field.
+    pub fn validate(&self) -> Result<(), SceneError> {
+        let positive = |field: &str, v: Real| {
+            if v.is_finite() && v > 0.0 {
+                Ok(())
+            } else {
+                Err(invalid(
+                    field,
+                    format!("must be positive and finite, got {v}"),
+                ))
+            }
+        };
+        let non_negative_opt = |field: &str, v: Option<Real>| match v {
+            Some(v) if !(v.is_finite() && v >= 0.0) => Err(invalid(
+                field,
+                format!("must be non-negative and finite, got {v}"),
+            )),
+            _ => Ok(()),
+        };
+        positive("tool.scale_m_per_unit", self.tool.scale_m_per_unit)?;
+        positive("tool.mass_kg", self.tool.mass_kg)?;
+        self.tool.pose.validate("tool.pose")?;
+        for (i, o) in self.obstacles.iter().enumerate() {
+            positive(
+                &format!("obstacles[{i}].scale_m_per_unit"),
+                o.scale_m_per_unit,
+            )?;
+            o.pose.validate(&format!("obstacles[{i}].pose"))?;
+        }
+        positive(
+            "coupling.stiffness_n_per_m",
+            self.coupling.stiffness_n_per_m,
+        )?;
+        positive(
+            "coupling.angular_stiffness_nm_per_rad",
+            self.coupling.angular_stiffness_nm_per_rad,
+        )?;
+        non_negative_opt("coupling.damping_ns_per_m", self.coupling.damping_ns_per_m)?;
+        non_negative_opt(
+            "coupling.angular_damping_nms_per_rad",
+            self.coupling.angular_damping_nms_per_rad,
+        )?;
+        positive("contact.stiffness_n_per_m", self.contact.stiffness_n_per_m)?;
+        non_negative_opt("contact.damping_ns_per_m", self.contact.damping_ns_per_m)?;
+        positive("contact.delta_m", self.contact.delta_m)?;
+        if self.contact.clusters == 0 {
+            return Err(invalid("contact.clusters", "must be at least 1"));
+        }
+        if !(self.contact.error_threshold.is_finite() && self.contact.error_threshold >= 0.0) {
+            return Err(invalid(
+                "contact.error_threshold",
+                "must be non-negative and finite",
+            ));
+        }
+        positive("rates.haptic_hz", self.rates.haptic_hz)?;
+        if self.rates.haptic_hz > 20_000.0 {
+            return Err(invalid("rates.haptic_hz", "must be at most 20 kHz"));
+        }
+        if let Some(c) = self.rates.contact_hz {
+            positive("rates.contact_hz", c)?;
+        }
+        let mut last = Real::NEG_INFINITY;
+        for (i, w) in self.device.waypoints.iter().enumerate() {
+            let field = format!("device.waypoints[{i}]");
+            if !(w.time_s.is_finite() && w.time_s > last) {
+                return Err(invalid(
+                    format!("{field}.time_s"),
+                    "times must be finite and increasing",
+                ));
+            }
+            last = w.time_s;
+            if w.position_m
+                .iter()
+                .chain(&w.rotation_axis_angle_rad)
+                .any(|v| !v.is_finite())
+            {
+                return Err(invalid(field, "must be finite"));
+            }
+        }
+        Ok(())
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    const MINIMAL: &str = r#"
+        [tool]
+        mesh = "tool.stl"
+        mass_kg = 0.01
+    "#;
+
+    #[test]
+    fn minimal_scene_takes_defaults_and_resolves_paths() {
+        let s = Scene::from_toml_str(MINIMAL, Path::new("/scenes")).unwrap();
+        assert_eq!(s.tool.mesh, PathBuf::from("/scenes/tool.stl"));
+        assert_eq!(s.contact.clusters, 5);
+        assert_eq!(s.rates.haptic_hz, 1000.0);
+    }
+
+    #[test]
+    fn unknown_field_is_named() {
+        let text = "[tool]\nmesh = \"a.stl\"\nmass_kg = 0.01\nmass_g = 3\n";
+        match Scene::from_toml_str(text, Path::new(".")) {
+            Err(SceneError::Parse(m)) => assert!(m.contains("mass_g"), "{m}"),
+            other => panic!("expected a parse error, got {other:?}"),
+        }
+    }
+
+    #[test]
+    fn wrong_type_is_named() {
+        let text = "[tool]\nmesh = \"a.stl\"\nmass_kg = \"heavy\"\n";
+        match Scene::from_toml_str(text, Path::new(".")) {
+            Err(SceneError::Parse(m)) => assert!(m.contains("mass_kg"), "{m}"),
+            other => panic!("expected a parse error, got {other:?}"),
+        }
+    }
+
+    #[test]
+    fn missing_field_is_named() {
+        match Scene::from_toml_str("[tool]\nmesh = \"a.stl\"\n", Path::new(".")) {
+            Err(SceneError::Parse(m)) => assert!(m.contains("mass_kg"), "{m}"),
+            other => panic!("expected a parse error, got {other:?}"),
+        }
+    }
+
+    #[test]
+    fn out_of_range_values_name_their_field() {
+        let cases = [
+            ("[tool]\nmesh = \"a\"\nmass_kg = -1.0\n", "tool.mass_kg"),
+            (
+                "[tool]\nmesh = \"a\"\nmass_kg = 1.0\n[contact]\nclusters = 0\n",
+                "contact.clusters",
+            ),
+            (
+                "[tool]\nmesh = \"a\"\nmass_kg = 1.0\n[contact]\ndelta_m = 0.0\n",
+                "contact.delta_m",
+            ),
+            (
+                "[tool]\nmesh = \"a\"\nmass_kg = 1.0\n[rates]\nhaptic_hz = 50000.0\n",
+                "rates.haptic_hz",
+            ),
+            (
+                "[tool]\nmesh = \"a\"\nmass_kg = 1.0\n[[obstacles]]\nmesh = \"b\"\nscale_m_per_unit = 0.0\n",
+                "obstacles[0].scale_m_per_unit",
+            ),
+            (
+                "[tool]\nmesh = \"a\"\nmass_kg = 1.0\n[[device.waypoints]]\ntime_s = 1.0\nposition_m = [0,0,0]\n[[device.waypoints]]\ntime_s = 0.5\nposition_m = [0,0,0]\n",
+                "device.waypoints[1].time_s",
+            ),
+        ];
+        for (text, field) in cases {
+            match Scene::from_toml_str(text, Path::new(".")) {
+                Err(SceneError::Invalid { field: f, .. }) => assert_eq!(f, field),
+                other => panic!("{field}: expected Invalid, got {other:?}"),
+            }
+        }
+    }
+
+    #[test]
+    fn unreadable_file_is_an_io_error() {
+        assert!(matches!(
+            Scene::load(Path::new("/nonexistent/scene.toml")),
+            Err(SceneError::Io { .. })
+        ));
+    }
+}
+
+/// Everything a scene describes, loaded and ready to compose into a pipeline.
+#[derive(Debug, Clone)]
+pub struct SceneParts {
+    /// The tool's mass properties (uniform solid of the given mass).
+    pub body: haptic_core::RigidBody,
+    /// The tool mesh in its body frame (origin at the centre of mass), m.
+    pub tool_mesh: haptic_collision::TriMesh,
+    /// Initial pose of the tool's centre-of-mass frame.
+    pub tool_pose: Pose,
+    /// The obstacles, each with its pose.
+    pub obstacles: Vec<(haptic_collision::TriMesh, Pose)>,
+    /// Coupling parameters.
+    pub coupling: haptic_dynamics::CouplingParams,
+    /// Penalty parameters.
+    pub penalty: haptic_dynamics::PenaltyParams,
+    /// Pipeline configuration (rates, δ, K, threshold, linearization).
+    pub config: crate::PipelineConfig,
+    /// Contact rate in virtual time (Hz), if the scene fixes one.
+    pub contact_hz: Option<Real>,
+    /// The device's limits.
+    pub limits: haptic_core::DeviceLimits,
+    /// The simulated hand's target trajectory (handle poses).
+    pub waypoints: Vec<haptic_device::Waypoint>,
+}
+
+impl SceneParts {
+    /// A [`haptic_device::HandDevice`] following the scene's waypoints with the default hand
+    /// impedance.
+    ///
+    /// # Errors
+    /// [`SceneError::Invalid`] (`device.waypoints`) if the trajectory is rejected.
+    pub fn hand_device(&self) -> Result<haptic_device::HandDevice, SceneError> {
+        let target =
+            haptic_device::ScriptedDevice::from_waypoints(self.waypoints.clone(), self.limits)
+                .map_err(|e| invalid("device.waypoints", e.to_string()))?;
+        haptic_device::HandDevice::new(haptic_device::HandParams::default(), target, self.limits)
+            .map_err(|e| invalid("device", e.to_string()))
+    }
+}
+
+impl Scene {
+    /// Loads the meshes and computes what the pipeline needs: the tool recentred on its centre
+    /// of mass with the inertia of a uniform solid of `tool.mass_kg`, the obstacles, the
+    /// parameters and the device's trajectory.
+    ///
+    /// # Errors
+    /// [`SceneError::Invalid`] naming the field whose mesh or value is bad.
+    pub fn assemble(&self) -> Result<SceneParts, SceneError> {
+        use haptic_collision::{LoadOptions, TriMesh};
+        self.validate()?;
+        let options = |scale| LoadOptions {
+            scale_m_per_unit: scale,
+            ..LoadOptions::default()
+        };
+        let (mesh, _) = TriMesh::load(&self.tool.mesh, &options(self.tool.scale_m_per_unit))
+            .map_err(|e| invalid("tool.mesh", e.to_string()))?;
+        // Inertia is linear in density: compute at 1 kg/m³, then scale to the mass.
+        let unit = mesh
+            .mass_properties(1.0)
+            .map_err(|e| invalid("tool.mesh", format!("no mass properties: {e}")))?;
+        let density = self.tool.mass_kg / unit.volume_m3;
+        let body = haptic_core::RigidBody::new(self.tool.mass_kg, unit.inertia_about_com * density)
+            .map_err(|e| invalid("tool.mass_kg", e.to_string()))?;
+        let tool_mesh = mesh
+            .translated(&-unit.centre_of_mass_m)
+            .map_err(|e| invalid("tool.mesh", e.to_string()))?;
+        let mut obstacles = Vec::with_capacity(self.obstacles.len());
+        for (i, o) in self.obstacles.iter().enumerate() {
+            let (m, _) = TriMesh::load(&o.mesh, &options(o.scale_m_per_unit))
+                .map_err(|e| invalid(format!("obstacles[{i}].mesh"), e.to_string()))?;
+            obstacles.push((m, o.pose.pose()));
+        }
+        let defaults = haptic_dynamics::CouplingParams::default();
+        let coupling = haptic_dynamics::CouplingParams {
+            stiffness_n_per_m: self.coupling.stiffness_n_per_m,
+            damping_ns_per_m: self
+                .coupling
+                .damping_ns_per_m
+                .unwrap_or(defaults.damping_ns_per_m),
+            angular_stiffness_nm_per_rad: self.coupling.angular_stiffness_nm_per_rad,
+            angular_damping_nms_per_rad: self
+                .coupling
+                .angular_damping_nms_per_rad
+                .unwrap_or(defaults.angular_damping_nms_per_rad),
+            saturation: None,
+        };
+        let penalty = haptic_dynamics::PenaltyParams::new(
+            self.contact.stiffness_n_per_m,
+            self.contact
+                .damping_ns_per_m
+                .unwrap_or(haptic_dynamics::PenaltyParams::default().damping_ns_per_m),
+            self.contact.delta_m,
+        )
+        .map_err(|e| invalid("contact", e.to_string()))?;
+        let query =
+            haptic_core::QueryParams::new(self.contact.delta_m, self.contact.error_threshold)
+                .map_err(|e| invalid("contact", e.to_string()))?;
+        let config = crate::PipelineConfig {
+            haptic_rate_hz: self.rates.haptic_hz,
+            query,
+            cluster: haptic_cluster::ClusterParams {
+                max_clusters: self.contact.clusters,
+                ..Default::default()
+            },
+            linearization: if self.contact.linearized {
+                haptic_core::LinearizationMode::Linearized
+            } else {
+                haptic_core::LinearizationMode::Constant
+            },
+            ..crate::PipelineConfig::default()
+        };
+        let tool_pose = self.tool.pose.pose();
+        let mut waypoints: Vec<haptic_device::Waypoint> = self
+            .device
+            .waypoints
+            .iter()
+            .map(|w| {
+                haptic_device::Waypoint::new(
+                    w.time_s,
+                    PoseSpec::new(w.position_m, w.rotation_axis_angle_rad).pose(),
+                )
+            })
+            .collect();
+        if waypoints.is_empty() {
+            waypoints.push(haptic_device::Waypoint::new(0.0, tool_pose));
+        }
+        let centre = waypoints[0].pose.position;
+        let half = Vec3::repeat(self.device.workspace_half_m);
+        let limits = haptic_core::DeviceLimits::new(
+            self.device.max_force_n,
+            self.device.max_torque_nm,
+            centre - half,
+            centre + half,
+            self.rates.haptic_hz,
+        )
+        .map_err(|e| invalid("device", e.to_string()))?;
+        Ok(SceneParts {
+            body,
+            tool_mesh,
+            tool_pose,
+            obstacles,
+            coupling,
+            penalty,
+            config,
+            contact_hz: self.rates.contact_hz,
+            limits,
+            waypoints,
+        })
+    }
+}

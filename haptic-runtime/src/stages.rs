@@ -1,0 +1,428 @@
+//! The two halves of the multirate pipeline (Section III-A), shared by the real-time and the
+//! virtual-time modes: the haptic step (steps 1–6) and the contact update (steps 1–4).
+
+use haptic_cluster::Clusterer;
+use haptic_core::{
+    CollisionBackend, ContactModel, ContactSet, Device, DeviceError, DeviceErrorKind, DeviceLimits,
+    DeviceState, Integrator, LinearizationMode, LinearizedContact, QueryParams, Real, RigidBody,
+    ToolState, Wrench,
+};
+use haptic_dynamics::forces::HapticForces;
+
+use crate::telemetry::DurationHistogram;
+
+/// The tool state the haptic thread publishes for the contact thread.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct ToolMessage {
+    /// Sequence number, increasing.
+    pub seq: u64,
+    /// Haptic time of the state (s).
+    pub time_s: Real,
+    /// The state.
+    pub state: ToolState,
+}
+
+/// What the contact thread publishes: the linearized contact model and what it came from.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct ContactUpdate {
+    /// Sequence number, increasing; 0 is the initial "no contact" update.
+    pub seq: u64,
+    /// Haptic time of the tool state the update was computed at (s).
+    pub query_time_s: Real,
+    /// The linearized contact wrench (eq. 42).
+    pub model: LinearizedContact,
+    /// Raw contacts returned by the collision query.
+    pub raw_contacts: usize,
+    /// Clusters (representatives) the model was built from.
+    pub clusters: usize,
+    /// Deepest raw penetration (m); 0 when nothing penetrates.
+    pub max_penetration_m: Real,
+    /// Whether the broad phase found nothing near the tool (no further work was done).
+    pub broad_phase_only: bool,
+}
+
+impl ContactUpdate {
+    /// The initial update: no contact.
+    pub fn none() -> Self {
+        Self {
+            seq: 0,
+            query_time_s: 0.0,
+            model: LinearizedContact::none(),
+            raw_contacts: 0,
+            clusters: 0,
+            max_penetration_m: 0.0,
+            broad_phase_only: true,
+        }
+    }
+}
+
+/// Why a contact update failed (the update is dropped and counted).
+#[derive(Debug, Clone, PartialEq)]
+pub enum ContactStageError {
+    /// The collision back-end returned an error.
+    Collision(String),
+    /// Clustering failed.
+    Cluster(String),
+    /// The contact model failed.
+    Model(String),
+}
+
+impl std::fmt::Display for ContactStageError {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self {
+            Self::Collision(e) => write!(f, "collision query failed: {e}"),
+            Self::Cluster(e) => write!(f, "clustering failed: {e}"),
+            Self::Model(e) => write!(f, "contact model failed: {e}"),
+        }
+    }
+}
+
+/// Steps 1–4 of the contact thread: fetch tool state → collision query → cluster → penalty forces
+/// and Jacobians at the representatives → linearized model.
+pub struct ContactStage<B, C> {
+    backend: B,
+    model: C,
+    clusterer: Clusterer,
+    body: RigidBody,
+    params: QueryParams,
+    raw: ContactSet,
+    representatives: ContactSet,
+    seq: u64,
+}
+
+impl<B: CollisionBackend, C: ContactModel> ContactStage<B, C> {
+    /// A contact stage.
+    pub fn new(
+        backend: B,
+        model: C,
+        clusterer: Clusterer,
+        body: RigidBody,
+        params: QueryParams,
+    ) -> Self {
+        Self {
+            backend,
+            model,
+            clusterer,
+            body,
+            params,
+            raw: ContactSet::with_capacity(256),
+            representatives: ContactSet::with_capacity(16),
+            seq: 0,
+        }
+    }
+
+    /// The collision back-end.
+    pub fn backend(&self) -> &B {
+        &self.backend
+    }
+
+    /// The raw contacts of the last update.
+    pub fn raw_contacts(&self) -> &ContactSet {
+        &self.raw
+    }
+
+    /// The representatives of the last update.
+    pub fn representatives(&self) -> &ContactSet {
+        &self.representatives
+    }
+
+    /// One contact update at the tool state `tool`, computed at haptic time `time_s`.
+    ///
+    /// # Errors
+    /// [`ContactStageError`] when the back-end, the clustering or the model fails.
+    pub fn update(
+        &mut self,
+        tool: &ToolState,
+        time_s: Real,
+    ) -> Result<ContactUpdate, ContactStageError> {
+        let stats = self
+            .backend
+            .query(&tool.pose(), &self.params, &mut self.raw)
+            .map_err(|e| ContactStageError::Collision(e.to_string()))?;
+        self.seq += 1;
+        let mut update = ContactUpdate {
+            seq: self.seq,
+            query_time_s: time_s,
+            ..ContactUpdate::none()
+        };
+        if self.raw.is_empty() {
+            // Free space: no clustering, no penalty, no Jacobian.
+            self.representatives.clear();
+            update.broad_phase_only = !stats.broad_phase_hit;
+            return Ok(update);
+        }
+        update.broad_phase_only = false;
+        update.raw_contacts = self.raw.len();
+        update.max_penetration_m = self.raw.max_depth_m().unwrap_or(0.0).max(0.0);
+        self.clusterer
+            .cluster(
+                self.raw.as_slice(),
+                self.params.delta_m,
+                &mut self.representatives,
+            )
+            .map_err(|e| ContactStageError::Cluster(e.to_string()))?;
+        update.clusters = self.representatives.len();
+        self.model
+            .linearize(
+                &self.body,
+                tool,
+                self.representatives.as_slice(),
+                &mut update.model,
+            )
+            .map_err(|e| ContactStageError::Model(e.to_string()))?;
+        Ok(update)
+    }
+}
+
+/// What one haptic step did.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum StepOutcome {
+    /// The tool was integrated and a force sent.
+    Stepped,
+    /// A NaN (device reading or state) or a failed solve: zero force was sent.
+    ZeroForce {
+        /// Whether the integrator failed (as opposed to bad device data).
+        solver_failure: bool,
+    },
+}
+
+/// A device failure that ends the run.
+#[derive(Debug, Clone, PartialEq)]
+pub struct DeviceFailure {
+    /// Kind of the failure.
+    pub kind: DeviceErrorKind,
+    /// Message.
+    pub message: String,
+}
+
+/// Counters and histograms the haptic stage keeps for itself.
+#[derive(Debug, Clone, Default)]
+pub struct HapticStats {
+    /// Steps taken (including zero-force ones).
+    pub steps: u64,
+    /// Step compute time.
+    pub step_time: DurationHistogram,
+    /// Largest force sent (N).
+    pub max_force_n: Real,
+    /// Largest coupling deviation (m).
+    pub max_coupling_deviation_m: Real,
+    /// Commands clamped to the device limits.
+    pub saturation_events: u64,
+    /// Zero-force steps for NaN or failed solves.
+    pub nan_events: u64,
+    /// Integration failures.
+    pub solver_failures: u64,
+    /// Steps with a stale (faded) contact model.
+    pub stale_steps: u64,
+    /// Tool resets after the coupling deviation passed the divergence bound.
+    pub divergences: u64,
+    /// Largest `| |q| - 1 |` of the tool state seen.
+    pub max_quat_norm_error: Real,
+}
+
+/// Safety settings of the haptic stage.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct SafetyConfig {
+    /// After this long without a fresh contact update (s), contact forces fade out.
+    pub contact_timeout_s: Real,
+    /// Duration of the fade from full to zero contact force (s).
+    pub contact_fade_s: Real,
+    /// A coupling deviation beyond this (m) counts as a divergence: the tool is put back at the
+    /// handle, at rest.
+    pub divergence_bound_m: Real,
+}
+
+impl Default for SafetyConfig {
+    fn default() -> Self {
+        Self {
+            contact_timeout_s: 0.1,
+            contact_fade_s: 0.1,
+            divergence_bound_m: 0.5,
+        }
+    }
+}
+
+/// Steps 1–6 of the haptic thread: read device → linearise coupling → linearised contact →
+/// solve → coupling force with the new state → send to device.
+pub struct HapticStage<I, D> {
+    integrator: I,
+    device: D,
+    body: RigidBody,
+    forces: HapticForces,
+    tool: ToolState,
+    limits: DeviceLimits,
+    safety: SafetyConfig,
+    contact: ContactUpdate,
+    contact_received_s: Real,
+    last_wrench: Wrench,
+    /// Statistics of the run so far.
+    pub stats: HapticStats,
+}
+
+impl<I: Integrator, D: Device> HapticStage<I, D> {
+    /// A haptic stage; `forces` holds the coupling (already grasped), `tool` the initial state.
+    pub fn new(
+        integrator: I,
+        device: D,
+        body: RigidBody,
+        forces: HapticForces,
+        tool: ToolState,
+        safety: SafetyConfig,
+    ) -> Self {
+        let limits = device.limits();
+        Self {
+            integrator,
+            device,
+            body,
+            forces,
+            tool,
+            limits,
+            safety,
+            contact: ContactUpdate::none(),
+            contact_received_s: 0.0,
+            last_wrench: Wrench::zero(),
+            stats: HapticStats::default(),
+        }
+    }
+
+    /// The current tool state.
+    pub fn tool(&self) -> &ToolState {
+        &self.tool
+    }
+
+    /// The last wrench sent to the device.
+    pub fn last_wrench(&self) -> &Wrench {
+        &self.last_wrench
+    }
+
+    /// The device.
+    pub fn device(&self) -> &D {
+        &self.device
+    }
+
+    /// The device, mutably.
+    pub fn device_mut(&mut self) -> &mut D {
+        &mut self.device
+    }
+
+    /// The coupling and contact forces.
+    pub fn forces(&self) -> &HapticForces {
+        &self.forces
+    }
+
+    /// The latest contact update in use.
+    pub fn contact(&self) -> &ContactUpdate {
+        &self.contact
+    }
+
+    /// Hands a new contact update to the stage (takes effect at the next step).
+    #[inline]
+    pub fn receive_contact(&mut self, update: &ContactUpdate, now_s: Real) {
+        if update.seq != self.contact.seq {
+            self.contact = *update;
+            self.contact_received_s = now_s;
+            self.forces.contact = update.model;
+        }
+    }
+
+    fn send_zero(&mut self) -> Result<(), DeviceFailure> {
+        self.last_wrench = Wrench::zero();
+        self.device.command_zero().map_err(|e| DeviceFailure {
+            kind: e.kind(),
+            message: e.to_string(),
+        })
+    }
+
+    /// One haptic period at time `now_s` with step `dt_s`. No allocation, no lock, no I/O beyond
+    /// the device transaction.
+    ///
+    /// # Errors
+    /// A [`DeviceFailure`] other than bad data (disconnection, timeout): zero force has been
+    /// commanded (if the device still answers) and the run should stop.
+    pub fn step(&mut self, now_s: Real, dt_s: Real) -> Result<StepOutcome, DeviceFailure> {
+        self.stats.steps += 1;
+        // 1. Read the device.
+        let reading: DeviceState = match self.device.read(now_s) {
+            Ok(s) if s.is_finite() => s,
+            Ok(_) => return self.zero_force_step(false),
+            Err(e) if e.kind() == DeviceErrorKind::InvalidData => {
+                return self.zero_force_step(false);
+            }
+            Err(e) => {
+                let failure = DeviceFailure {
+                    kind: e.kind(),
+                    message: e.to_string(),
+                };
+                let _ = self.device.command_zero();
+                self.last_wrench = Wrench::zero();
+                return Err(failure);
+            }
+        };
+        // 2. The coupling to the new handle pose (linearised inside the implicit solve).
+        if self.forces.coupling.set_device(&reading).is_err() {
+            return self.zero_force_step(false);
+        }
+        // 3. The linearized contact model, faded when stale.
+        let age_s = now_s - self.contact_received_s;
+        if age_s > self.safety.contact_timeout_s && !self.contact.model.is_empty() {
+            self.stats.stale_steps += 1;
+            let fade = (1.0 - (age_s - self.safety.contact_timeout_s) / self.safety.contact_fade_s)
+                .clamp(0.0, 1.0);
+            self.forces.contact = self.contact.model.scaled(fade);
+        }
+        // 4. Solve for the new state.
+        let new_state =
+            match self
+                .integrator
+                .step(&self.body, &self.tool, now_s, dt_s, &mut self.forces)
+            {
+                Ok(s) if s.is_finite() => s,
+                _ => return self.zero_force_step(true),
+            };
+        let quat_err = (new_state.q.coords.norm() - 1.0).abs();
+        self.stats.max_quat_norm_error = self.stats.max_quat_norm_error.max(quat_err);
+        self.tool = new_state;
+        let deviation = self.forces.coupling.deviation(&self.tool).translation_m;
+        self.stats.max_coupling_deviation_m = self.stats.max_coupling_deviation_m.max(deviation);
+        if deviation > self.safety.divergence_bound_m {
+            self.stats.divergences += 1;
+            self.tool = self.forces.coupling.tool_at_handle();
+        }
+        // 5. The coupling force with the new state, saturated to the device.
+        let reaction = self.forces.coupling.device_reaction(&self.body, &self.tool);
+        let (wrench, clamped) = self.limits.saturate(&reaction);
+        if clamped {
+            self.stats.saturation_events += 1;
+        }
+        if !wrench.is_finite() {
+            return self.zero_force_step(true);
+        }
+        // 6. Send it.
+        self.device.command(&wrench).map_err(|e| DeviceFailure {
+            kind: e.kind(),
+            message: e.to_string(),
+        })?;
+        self.last_wrench = wrench;
+        self.stats.max_force_n = self.stats.max_force_n.max(wrench.force.norm());
+        Ok(StepOutcome::Stepped)
+    }
+
+    fn zero_force_step(&mut self, solver_failure: bool) -> Result<StepOutcome, DeviceFailure> {
+        self.stats.nan_events += 1;
+        if solver_failure {
+            self.stats.solver_failures += 1;
+        }
+        self.send_zero()?;
+        Ok(StepOutcome::ZeroForce { solver_failure })
+    }
+
+    /// Sets how the contact model is used between updates.
+    pub fn set_linearization(&mut self, mode: LinearizationMode) {
+        self.forces.mode = mode;
+    }
+
+    /// Commands zero force (the safe state), ignoring errors.
+    pub fn shutdown(&mut self) {
+        let _ = self.send_zero();
+    }
+}

@@ -1,0 +1,239 @@
+//! Telemetry that does not slow the loop: fixed-size histograms and counters owned by each
+//! thread, published to a shared snapshot with relaxed atomic stores (no lock, no allocation).
+
+use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
+
+use haptic_core::Real;
+use serde::Serialize;
+
+/// Lower edge of the first histogram bin (s).
+const HIST_MIN_S: Real = 1e-8;
+/// Bins per decade: about 6 % resolution.
+const BINS_PER_DECADE: usize = 40;
+/// Decades covered: 10 ns to 100 s.
+const DECADES: usize = 10;
+const BINS: usize = BINS_PER_DECADE * DECADES;
+
+/// A log-binned histogram of durations, allocated once.
+#[derive(Debug, Clone)]
+pub struct DurationHistogram {
+    counts: Box<[u64; BINS]>,
+    total: u64,
+    max_s: Real,
+    sum_s: Real,
+}
+
+impl Default for DurationHistogram {
+    fn default() -> Self {
+        Self::new()
+    }
+}
+
+impl DurationHistogram {
+    /// An empty histogram.
+    pub fn new() -> Self {
+        Self {
+            counts: Box::new([0; BINS]),
+            total: 0,
+            max_s: 0.0,
+            sum_s: 0.0,
+        }
+    }
+
+    /// Records one duration (s). Constant time, no allocation.
+    #[inline]
+    pub fn record(&mut self, seconds: Real) {
+        if !seconds.is_finite() {
+            return;
+        }
+        let bin = if seconds <= HIST_MIN_S {
+            0
+        } else {
+            (((seconds / HIST_MIN_S).log10() * BINS_PER_DECADE as Real) as usize).min(BINS - 1)
+        };
+        self.counts[bin] += 1;
+        self.total += 1;
+        self.sum_s += seconds;
+        if seconds > self.max_s {
+            self.max_s = seconds;
+        }
+    }
+
+    /// Number of samples.
+    pub fn count(&self) -> u64 {
+        self.total
+    }
+
+    /// Largest sample (s).
+    pub fn max_s(&self) -> Real {
+        self.max_s
+    }
+
+    /// Mean (s), 0 when empty.
+    pub fn mean_s(&self) -> Real {
+        if self.total == 0 {
+            0.0
+        } else {
+            self.sum_s / self.total as Real
+        }
+    }
+
+    /// The `p`-quantile (`p` in [0, 1]) as the upper edge of its bin (s), capped at the maximum;
+    /// 0 when empty.
+    pub fn quantile_s(&self, p: Real) -> Real {
+        if self.total == 0 {
+            return 0.0;
+        }
+        let target = ((p.clamp(0.0, 1.0) * self.total as Real).ceil() as u64).max(1);
+        let mut seen = 0;
+        for (i, c) in self.counts.iter().enumerate() {
+            seen += c;
+            if seen >= target {
+                let upper = HIST_MIN_S * 10f64.powf((i + 1) as Real / BINS_PER_DECADE as Real);
+                return upper.min(self.max_s);
+            }
+        }
+        self.max_s
+    }
+}
+
+/// A shared `f64` written by one thread and read by others, lock-free.
+#[derive(Debug, Default)]
+pub struct AtomicReal(AtomicU64);
+
+impl AtomicReal {
+    /// Stores a value (relaxed).
+    #[inline]
+    pub fn store(&self, v: Real) {
+        self.0.store(v.to_bits(), Ordering::Relaxed);
+    }
+    /// Loads the value (relaxed).
+    #[inline]
+    pub fn load(&self) -> Real {
+        Real::from_bits(self.0.load(Ordering::Relaxed))
+    }
+}
+
+/// Live counters, readable from any thread while the pipeline runs.
+#[derive(Debug, Default)]
+pub struct LiveTelemetry {
+    /// Haptic steps done.
+    pub haptic_steps: AtomicU64,
+    /// Contact updates published.
+    pub contact_updates: AtomicU64,
+    /// Simulated or wall time of the haptic thread (s).
+    pub time_s: AtomicReal,
+    /// Largest force sent so far (N).
+    pub max_force_n: AtomicReal,
+    /// Largest penetration so far (m).
+    pub max_penetration_m: AtomicReal,
+    /// Raw contacts of the latest update.
+    pub raw_contacts: AtomicU64,
+    /// Clusters of the latest update.
+    pub clusters: AtomicU64,
+    /// Deadline misses so far.
+    pub deadline_misses: AtomicU64,
+    /// NaN or failed-solve events so far.
+    pub nan_events: AtomicU64,
+    /// Set when the contact thread has died.
+    pub contact_thread_dead: AtomicBool,
+}
+
+/// A copy of the live counters.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+pub struct Snapshot {
+    /// Haptic steps done.
+    pub haptic_steps: u64,
+    /// Contact updates published.
+    pub contact_updates: u64,
+    /// Haptic thread time (s).
+    pub time_s: Real,
+    /// Largest force sent so far (N).
+    pub max_force_n: Real,
+    /// Largest penetration so far (m).
+    pub max_penetration_m: Real,
+    /// Raw contacts of the latest update.
+    pub raw_contacts: u64,
+    /// Clusters of the latest update.
+    pub clusters: u64,
+    /// Deadline misses so far.
+    pub deadline_misses: u64,
+    /// NaN or failed-solve events so far.
+    pub nan_events: u64,
+}
+
+impl LiveTelemetry {
+    /// Reads every counter.
+    pub fn snapshot(&self) -> Snapshot {
+        Snapshot {
+            haptic_steps: self.haptic_steps.load(Ordering::Relaxed),
+            contact_updates: self.contact_updates.load(Ordering::Relaxed),
+            time_s: self.time_s.load(),
+            max_force_n: self.max_force_n.load(),
+            max_penetration_m: self.max_penetration_m.load(),
+            raw_contacts: self.raw_contacts.load(Ordering::Relaxed),
+            clusters: self.clusters.load(Ordering::Relaxed),
+            deadline_misses: self.deadline_misses.load(Ordering::Relaxed),
+            nan_events: self.nan_events.load(Ordering::Relaxed),
+        }
+    }
+}
+
+/// The end-of-run summary. Serialized as the demo's `--json` output.
+#[derive(Debug, Clone, PartialEq, Serialize, Default)]
+pub struct Summary {
+    /// `"real-time"` or `"virtual-time"`.
+    pub mode: String,
+    /// Duration of the run (s, wall or simulated).
+    pub duration_s: Real,
+    /// Haptic steps done.
+    pub haptic_steps: u64,
+    /// Achieved haptic rate (Hz).
+    pub haptic_rate_hz: Real,
+    /// Median haptic step compute time (s).
+    pub step_p50_s: Real,
+    /// 99th percentile of the haptic step time (s).
+    pub step_p99_s: Real,
+    /// 99.9th percentile of the haptic step time (s).
+    pub step_p999_s: Real,
+    /// Longest haptic step (s).
+    pub step_max_s: Real,
+    /// Periods whose step finished after the next deadline.
+    pub deadline_misses: u64,
+    /// Contact updates published.
+    pub contact_updates: u64,
+    /// Achieved contact-thread rate (Hz).
+    pub contact_rate_hz: Real,
+    /// Median contact latency, query start to result available (s).
+    pub contact_latency_p50_s: Real,
+    /// Longest contact latency (s).
+    pub contact_latency_max_s: Real,
+    /// Collision queries the broad phase settled (nothing near the tool).
+    pub broad_phase_only_queries: u64,
+    /// Most raw contacts in one update.
+    pub raw_contacts_max: u64,
+    /// Most clusters in one update.
+    pub clusters_max: u64,
+    /// Deepest raw penetration seen (m); 0 without contact.
+    pub max_penetration_m: Real,
+    /// Largest distance between device handle and grasp point (m).
+    pub max_coupling_deviation_m: Real,
+    /// Largest force sent to the device (N).
+    pub max_force_n: Real,
+    /// Commands clamped to the device limits.
+    pub saturation_events: u64,
+    /// Steps that sent zero force because of a NaN (device or state) or a failed solve.
+    pub nan_events: u64,
+    /// Integration failures among those.
+    pub solver_failures: u64,
+    /// Contact model or back-end errors (that update was dropped).
+    pub contact_errors: u64,
+    /// Steps during which the contact model was older than the timeout and faded.
+    pub contact_stale_steps: u64,
+    /// Whether the contact thread panicked (the haptic thread went on without it).
+    pub contact_thread_panicked: bool,
+    /// What happened to the contact thread or the device, in words; empty when all went well.
+    pub incidents: Vec<String>,
+    /// What the OS allowed for thread priority and affinity.
+    pub scheduling: String,
+}

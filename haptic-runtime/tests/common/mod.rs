@@ -1,0 +1,108 @@
+//! Test fixtures: a box-shaped tool over a floor, and back-ends that misbehave on purpose.
+
+#![allow(dead_code)]
+
+use std::time::Duration;
+
+use haptic_core::{
+    CollisionBackend, Contact, ContactSet, CoreError, Pose, QueryParams, QueryStats, Real, Vec3,
+};
+
+/// A box tool (its 8 corners are the contact features) over the floor `z = 0`.
+pub struct BoxOnFloor {
+    pub half_extents_m: Vec3,
+}
+
+impl BoxOnFloor {
+    pub fn new(half: Real) -> Self {
+        Self {
+            half_extents_m: Vec3::repeat(half),
+        }
+    }
+
+    fn corners(&self) -> [Vec3; 8] {
+        let h = self.half_extents_m;
+        let mut out = [Vec3::zeros(); 8];
+        for (i, c) in out.iter_mut().enumerate() {
+            *c = Vec3::new(
+                if i & 1 == 0 { -h.x } else { h.x },
+                if i & 2 == 0 { -h.y } else { h.y },
+                if i & 4 == 0 { -h.z } else { h.z },
+            );
+        }
+        out
+    }
+}
+
+impl CollisionBackend for BoxOnFloor {
+    type Error = CoreError;
+    fn name(&self) -> &str {
+        "box-on-floor"
+    }
+    fn tool_bounding_radius_m(&self) -> Real {
+        self.half_extents_m.norm()
+    }
+    fn query(&mut self, pose: &Pose, params: &QueryParams, out: &mut ContactSet) -> Result<QueryStats, CoreError> {
+        out.clear();
+        if !pose.is_finite() {
+            return Err(CoreError::NonFinite { what: "tool pose" });
+        }
+        if pose.position.z - self.tool_bounding_radius_m() > params.delta_m {
+            return Ok(QueryStats::default());
+        }
+        for (i, r) in self.corners().iter().enumerate() {
+            let p_a = pose.transform_point(r);
+            let depth = -p_a.z;
+            if depth >= -params.delta_m {
+                let p_b = Vec3::new(p_a.x, p_a.y, 0.0);
+                out.push(Contact::new(p_a, *r, p_b, -Vec3::z(), depth)?.with_features(i as u32, 0));
+            }
+        }
+        Ok(QueryStats {
+            broad_phase_hit: true,
+            node_pairs_tested: 1,
+            primitive_pairs_tested: 8,
+        })
+    }
+}
+
+/// Wraps a back-end: the `stall_at`-th query sleeps for `stall`, the `panic_at`-th panics.
+pub struct Misbehaving<B> {
+    pub inner: B,
+    pub queries: u64,
+    pub stall_at: Option<u64>,
+    pub stall: Duration,
+    pub panic_at: Option<u64>,
+}
+
+impl<B> Misbehaving<B> {
+    pub fn new(inner: B) -> Self {
+        Self {
+            inner,
+            queries: 0,
+            stall_at: None,
+            stall: Duration::ZERO,
+            panic_at: None,
+        }
+    }
+}
+
+impl<B: CollisionBackend> CollisionBackend for Misbehaving<B> {
+    type Error = B::Error;
+    fn name(&self) -> &str {
+        "misbehaving"
+    }
+    fn tool_bounding_radius_m(&self) -> Real {
+        self.inner.tool_bounding_radius_m()
+    }
+    fn query(&mut self, pose: &Pose, params: &QueryParams, out: &mut ContactSet) -> Result<QueryStats, B::Error> {
+        self.queries += 1;
+        if self.stall_at == Some(self.queries) {
+            std::thread::sleep(self.stall);
+        }
+        if self.panic_at == Some(self.queries) {
+            panic!("injected collision back-end panic");
+        }
+        self.inner.query(pose, params, out)
+    }
+}
