@@ -42,7 +42,12 @@ impl CollisionBackend for BoxOnFloor {
     fn tool_bounding_radius_m(&self) -> Real {
         self.half_extents_m.norm()
     }
-    fn query(&mut self, pose: &Pose, params: &QueryParams, out: &mut ContactSet) -> Result<QueryStats, CoreError> {
+    fn query(
+        &mut self,
+        pose: &Pose,
+        params: &QueryParams,
+        out: &mut ContactSet,
+    ) -> Result<QueryStats, CoreError> {
         out.clear();
         if !pose.is_finite() {
             return Err(CoreError::NonFinite { what: "tool pose" });
@@ -95,7 +100,12 @@ impl<B: CollisionBackend> CollisionBackend for Misbehaving<B> {
     fn tool_bounding_radius_m(&self) -> Real {
         self.inner.tool_bounding_radius_m()
     }
-    fn query(&mut self, pose: &Pose, params: &QueryParams, out: &mut ContactSet) -> Result<QueryStats, B::Error> {
+    fn query(
+        &mut self,
+        pose: &Pose,
+        params: &QueryParams,
+        out: &mut ContactSet,
+    ) -> Result<QueryStats, B::Error> {
         self.queries += 1;
         if self.stall_at == Some(self.queries) {
             std::thread::sleep(self.stall);

@@ -1,0 +1,94 @@
+//! The haptic loop allocates nothing: its step is counted with a global allocator, in contact
+//! (linearized model in use) and for each integrator.
+
+// A counting global allocator needs `unsafe impl GlobalAlloc`; it only forwards to `System`.
+#![allow(unsafe_code)]
+
+mod common;
+
+use std::alloc::{GlobalAlloc, Layout, System};
+use std::sync::atomic::{AtomicUsize, Ordering};
+
+use common::BoxOnFloor;
+use haptic_core::{DeviceLimits, Integrator, Pose, RigidBody, Vec3};
+use haptic_device::{HandDevice, HandParams, ScriptedDevice, Waypoint};
+use haptic_dynamics::{
+    BackwardEuler, ForwardEuler, NewtonBackwardEuler, PenaltyModel, PenaltyParams, Rk4,
+};
+use haptic_runtime::{PipelineBuilder, PipelineConfig};
+
+struct Counting;
+static ALLOCATIONS: AtomicUsize = AtomicUsize::new(0);
+
+unsafe impl GlobalAlloc for Counting {
+    unsafe fn alloc(&self, layout: Layout) -> *mut u8 {
+        ALLOCATIONS.fetch_add(1, Ordering::Relaxed);
+        unsafe { System.alloc(layout) }
+    }
+    unsafe fn dealloc(&self, ptr: *mut u8, layout: Layout) {
+        unsafe { System.dealloc(ptr, layout) }
+    }
+    unsafe fn realloc(&self, ptr: *mut u8, layout: Layout, new_size: usize) -> *mut u8 {
+        ALLOCATIONS.fetch_add(1, Ordering::Relaxed);
+        unsafe { System.realloc(ptr, layout, new_size) }
+    }
+}
+
+#[global_allocator]
+static GLOBAL: Counting = Counting;
+
+const HALF_M: f64 = 0.025;
+
+fn steps_allocate<I: Integrator>(integrator: I) -> usize {
+    let limits =
+        DeviceLimits::new(10.0, 1.0, Vec3::repeat(-0.5), Vec3::repeat(0.5), 1000.0).unwrap();
+    let start = Pose::from_position(Vec3::new(0.0, 0.0, HALF_M + 0.002));
+    let press = Pose::from_position(Vec3::new(0.0, 0.0, HALF_M - 0.005));
+    let target = ScriptedDevice::from_waypoints(
+        vec![Waypoint::new(0.0, start), Waypoint::new(0.1, press)],
+        limits,
+    )
+    .unwrap();
+    let hand = HandDevice::new(HandParams::default(), target, limits).unwrap();
+    let i = 0.1 * (2.0 * HALF_M).powi(2) / 6.0;
+    let mut p = PipelineBuilder::new(RigidBody::from_principal(0.1, [i, i, i]).unwrap(), start)
+        .integrator(integrator)
+        .backend(BoxOnFloor::new(HALF_M))
+        .contact_model(PenaltyModel::new(PenaltyParams::default()).unwrap())
+        .device(hand)
+        .config(PipelineConfig::default())
+        .build()
+        .unwrap();
+    // Warm up: run in virtual time (which also builds contact updates) until in contact.
+    p.run_virtual(
+        0.3,
+        haptic_runtime::ContactLatency::FixedRate { rate_hz: 500.0 },
+        |_, _| {},
+    )
+    .unwrap();
+    assert!(!p.haptic().contact().model.is_empty(), "not in contact");
+    let update = *p.haptic().contact();
+    let before = ALLOCATIONS.load(Ordering::Relaxed);
+    for k in 0..2000 {
+        let t = 0.3 + k as f64 * 1e-3;
+        if k % 4 == 0 {
+            let mut u = update;
+            u.seq += 1 + k as u64;
+            p.haptic_mut().receive_contact(&u, t);
+        }
+        p.haptic_mut().step(t, 1e-3).unwrap();
+    }
+    ALLOCATIONS.load(Ordering::Relaxed) - before
+}
+
+#[test]
+fn haptic_steps_allocate_nothing() {
+    assert_eq!(steps_allocate(BackwardEuler), 0, "backward Euler");
+    assert_eq!(
+        steps_allocate(NewtonBackwardEuler::default()),
+        0,
+        "Newton backward Euler"
+    );
+    assert_eq!(steps_allocate(Rk4), 0, "RK4");
+    assert_eq!(steps_allocate(ForwardEuler), 0, "forward Euler");
+}

@@ -1,0 +1,208 @@
+//! End-to-end tests of the pipeline: the spoon pressed into the cup in virtual time,
+//! determinism, fault injection, and a real-time smoke test.
+
+mod common;
+
+use std::path::PathBuf;
+use std::time::Duration;
+
+use common::{BoxOnFloor, Misbehaving};
+use haptic_collision::LodBackend;
+use haptic_core::{DeviceErrorKind, DeviceLimits, Pose, RigidBody, Vec3};
+use haptic_device::{Fault, FaultInjector, HandDevice, HandParams, ScriptedDevice, Waypoint};
+use haptic_dynamics::{BackwardEuler, PenaltyModel, PenaltyParams};
+use haptic_runtime::{
+    ContactLatency, PipelineBuilder, PipelineConfig, RuntimeError, Scene, Summary,
+};
+
+fn spoon_cup() -> Scene {
+    let path = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../xtask/scenes/spoon-cup.toml");
+    Scene::load(&path).unwrap()
+}
+
+/// Runs the spoon-into-cup scene for `seconds` of virtual time; returns the summary and the
+/// final tool state vector.
+fn run_spoon_cup(seconds: f64) -> (Summary, Vec<f64>) {
+    let parts = spoon_cup().assemble().unwrap();
+    let backend = LodBackend::new(&parts.tool_mesh, &parts.obstacles).unwrap();
+    let mut pipeline = PipelineBuilder::new(parts.body, parts.tool_pose)
+        .integrator(BackwardEuler)
+        .backend(backend)
+        .contact_model(PenaltyModel::new(parts.penalty).unwrap())
+        .device(parts.hand_device().unwrap())
+        .coupling(parts.coupling)
+        .config(parts.config)
+        .build()
+        .unwrap();
+    let latency = ContactLatency::FixedRate {
+        rate_hz: parts.contact_hz.unwrap(),
+    };
+    let summary = pipeline.run_virtual(seconds, latency, |_, _| {}).unwrap();
+    let y = pipeline.haptic().tool().to_vector();
+    (summary, y.iter().copied().collect())
+}
+
+#[test]
+fn spoon_pressed_into_cup_settles_without_deep_penetration() {
+    let (s, _) = run_spoon_cup(3.0);
+    assert_eq!(s.nan_events, 0);
+    assert!(s.raw_contacts_max > 0, "the spoon never touched the cup");
+    assert!(s.clusters_max <= 5);
+    assert!(
+        s.max_penetration_m < 0.6e-3,
+        "penetration {} mm",
+        s.max_penetration_m * 1e3
+    );
+    // The hand presses about 20 mm past the wall: the coupling carries a real load.
+    assert!(s.max_force_n > 0.5, "force {} N", s.max_force_n);
+    assert!(s.max_force_n.is_finite());
+}
+
+#[test]
+fn identical_virtual_runs_give_identical_outputs() {
+    let (a, ya) = run_spoon_cup(1.5);
+    let (b, yb) = run_spoon_cup(1.5);
+    assert_eq!(ya, yb, "final states differ");
+    assert_eq!(a.max_force_n.to_bits(), b.max_force_n.to_bits());
+    assert_eq!(a.max_penetration_m.to_bits(), b.max_penetration_m.to_bits());
+    assert_eq!(a.raw_contacts_max, b.raw_contacts_max);
+    assert_eq!(a.clusters_max, b.clusters_max);
+    assert_eq!(a.contact_updates, b.contact_updates);
+}
+
+// --- A 5 cm box (100 g) held by a scripted hand and pressed 5 mm into the floor z = 0. ---
+
+const HALF_M: f64 = 0.025;
+
+fn limits() -> DeviceLimits {
+    DeviceLimits::new(10.0, 1.0, Vec3::repeat(-0.5), Vec3::repeat(0.5), 1000.0).unwrap()
+}
+
+fn pressing_hand() -> HandDevice {
+    let start = Pose::from_position(Vec3::new(0.0, 0.0, HALF_M + 0.01));
+    let press = Pose::from_position(Vec3::new(0.0, 0.0, HALF_M - 0.005));
+    let target = ScriptedDevice::from_waypoints(
+        vec![Waypoint::new(0.0, start), Waypoint::new(0.2, press)],
+        limits(),
+    )
+    .unwrap();
+    HandDevice::new(HandParams::default(), target, limits()).unwrap()
+}
+
+fn box_body() -> RigidBody {
+    let i = 0.1 * (2.0 * HALF_M).powi(2) / 6.0;
+    RigidBody::from_principal(0.1, [i, i, i]).unwrap()
+}
+
+fn box_pipeline<B: haptic_core::CollisionBackend, D: haptic_core::Device>(
+    backend: B,
+    device: D,
+) -> haptic_runtime::Pipeline<BackwardEuler, B, PenaltyModel, D> {
+    PipelineBuilder::new(
+        box_body(),
+        Pose::from_position(Vec3::new(0.0, 0.0, HALF_M + 0.01)),
+    )
+    .integrator(BackwardEuler)
+    .backend(backend)
+    .contact_model(PenaltyModel::new(PenaltyParams::default()).unwrap())
+    .device(device)
+    .config(PipelineConfig {
+        realtime_scheduling: false,
+        ..PipelineConfig::default()
+    })
+    .build()
+    .unwrap()
+}
+
+#[test]
+fn box_pressed_on_floor_in_virtual_time_is_supported() {
+    let mut p = box_pipeline(BoxOnFloor::new(HALF_M), pressing_hand());
+    let s = p
+        .run_virtual(1.0, ContactLatency::FixedRate { rate_hz: 500.0 }, |_, _| {})
+        .unwrap();
+    assert_eq!(s.nan_events, 0);
+    assert_eq!(s.clusters_max, 4, "four bottom corners in contact");
+    assert!(s.max_penetration_m < 0.6e-3, "{}", s.max_penetration_m);
+    let z = p.haptic().tool().x.z;
+    assert!((z - HALF_M).abs() < 1e-3, "box centre at {z}");
+}
+
+#[test]
+fn a_device_that_disconnects_stops_the_run_with_zero_force() {
+    let device = FaultInjector::new(pressing_hand(), Fault::DisconnectAfter { reads: 300 });
+    let mut p = box_pipeline(BoxOnFloor::new(HALF_M), device);
+    let err = p
+        .run_virtual(1.0, ContactLatency::FixedRate { rate_hz: 500.0 }, |_, _| {})
+        .unwrap_err();
+    match err {
+        RuntimeError::Device { kind, summary, .. } => {
+            assert_eq!(kind, DeviceErrorKind::Disconnected);
+            assert!(summary.haptic_steps >= 300 && summary.haptic_steps <= 302);
+        }
+        other => panic!("unexpected error {other}"),
+    }
+    assert_eq!(p.haptic().last_wrench().force, Vec3::zeros());
+}
+
+#[test]
+fn nan_from_the_device_sends_zero_force_and_is_counted() {
+    let device = FaultInjector::new(
+        pressing_hand(),
+        Fault::NanBurst {
+            after_reads: 400,
+            reads: 25,
+        },
+    );
+    let mut p = box_pipeline(BoxOnFloor::new(HALF_M), device);
+    let mut zero_steps = 0;
+    let s = p
+        .run_virtual(1.0, ContactLatency::FixedRate { rate_hz: 500.0 }, |_, h| {
+            let w = h.last_wrench();
+            assert!(w.force.iter().chain(w.torque.iter()).all(|v| v.is_finite()));
+            if w.force == Vec3::zeros() {
+                zero_steps += 1;
+            }
+        })
+        .unwrap();
+    assert_eq!(s.nan_events, 25);
+    assert!(zero_steps >= 25);
+    assert!(s.incidents.iter().any(|i| i.contains("NaN")));
+    // After the burst, contact and coupling are back.
+    assert!(p.haptic().last_wrench().force.norm() > 0.1);
+}
+
+#[test]
+fn a_stalled_contact_thread_fades_contact_forces_and_the_haptic_loop_keeps_its_rate() {
+    let mut backend = Misbehaving::new(BoxOnFloor::new(HALF_M));
+    // The first queries are in free space; stall once the box presses on the floor.
+    backend.stall_at = Some(150);
+    backend.stall = Duration::from_millis(500);
+    let mut p = box_pipeline(backend, pressing_hand());
+    let s = p.run_realtime(1.0, |_| {}).unwrap();
+    assert!(s.haptic_steps == 1000);
+    assert!(s.contact_stale_steps > 0, "no fade while stalled");
+    assert!(s.incidents.iter().any(|i| i.contains("faded")));
+    assert!(s.max_force_n.is_finite() && s.max_force_n <= 10.0);
+}
+
+#[test]
+fn a_panicking_contact_thread_is_reported_and_contact_forces_fade() {
+    let mut backend = Misbehaving::new(BoxOnFloor::new(HALF_M));
+    backend.panic_at = Some(150);
+    let mut p = box_pipeline(backend, pressing_hand());
+    let s = p.run_realtime(1.0, |_| {}).unwrap();
+    assert!(s.contact_thread_panicked);
+    assert!(s.incidents.iter().any(|i| i.contains("panicked")));
+    assert!(s.contact_stale_steps > 0);
+    assert!(s.max_force_n.is_finite());
+}
+
+#[test]
+fn real_time_smoke() {
+    let mut p = box_pipeline(BoxOnFloor::new(HALF_M), pressing_hand());
+    let s = p.run_realtime(0.3, |_| {}).unwrap();
+    assert!(s.haptic_rate_hz > 0.0);
+    assert!(s.contact_rate_hz > 0.0);
+    assert!(s.max_force_n.is_finite());
+    assert_eq!(s.nan_events, 0);
+}
