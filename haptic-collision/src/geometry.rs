@@ -98,19 +98,35 @@ fn inside_prism(p: &Vec3, poly: &[Vec3], n: &Vec3) -> bool {
 
 /// Closest point to `p` on the planar convex polygon `poly` (unit normal `n`, CCW).
 pub fn closest_point_on_polygon(p: &Vec3, poly: &[Vec3], n: &Vec3) -> Vec3 {
-    if inside_prism(p, poly, n) {
-        return p - n * n.dot(&(p - poly[0]));
-    }
+    // One pass: `p` projects inside unless it lies outside some edge, and then the closest point
+    // (unique, the polygon being convex) lies on an edge that `p` is outside of, so only those
+    // edges are searched.
     let m = poly.len();
+    let mut inside = true;
     let mut best = poly[0];
     let mut best_d2 = Real::INFINITY;
     for i in 0..m {
-        let (c, _) = closest_point_on_segment(p, &poly[i], &poly[(i + 1) % m]);
-        let d2 = (c - p).norm_squared();
-        if d2 < best_d2 {
-            best_d2 = d2;
-            best = c;
+        let a = &poly[i];
+        let b = &poly[if i + 1 == m { 0 } else { i + 1 }];
+        let ab = b - a;
+        let ap = p - a;
+        if ab.cross(&ap).dot(n) < 0.0 {
+            inside = false;
+            let len2 = ab.norm_squared();
+            let c = if len2 <= 0.0 {
+                *a
+            } else {
+                a + ab * (ap.dot(&ab) / len2).clamp(0.0, 1.0)
+            };
+            let d2 = (c - p).norm_squared();
+            if d2 < best_d2 {
+                best_d2 = d2;
+                best = c;
+            }
         }
+    }
+    if inside {
+        return p - n * n.dot(&(p - poly[0]));
     }
     best
 }

@@ -135,7 +135,8 @@ impl Poly2 {
 #[derive(Default)]
 struct Scratch {
     pts: Vec<[Real; 2]>,
-    heights: Vec<Real>,
+    /// Corners in the node's plane frame `(u, w, height)`, sorted, without duplicates.
+    corners: Vec<[Real; 3]>,
     hull: Vec<[Real; 2]>,
 }
 
@@ -443,8 +444,7 @@ fn fill_piece(
     };
     let (u, w) = plane_basis(&n);
     let o = node.center;
-    scratch.pts.clear();
-    scratch.heights.clear();
+    scratch.corners.clear();
     let (mut hmin, mut hmax) = (Real::INFINITY, Real::NEG_INFINITY);
     for &t in node_tris {
         for v in &tris[t as usize] {
@@ -452,10 +452,16 @@ fn fill_piece(
             let h = n.dot(&d);
             hmin = hmin.min(h);
             hmax = hmax.max(h);
-            scratch.heights.push(h);
-            scratch.pts.push([u.dot(&d), w.dot(&d)]);
+            scratch.corners.push([u.dot(&d), w.dot(&d), h]);
         }
     }
+    // A vertex is a corner of several triangles: keep it once.
+    scratch.corners.sort_unstable_by(|a, b| {
+        a[0].total_cmp(&b[0])
+            .then(a[1].total_cmp(&b[1]))
+            .then(a[2].total_cmp(&b[2]))
+    });
+    scratch.corners.dedup();
     let hmid = 0.5 * (hmin + hmax);
     node.normal = n;
     node.plane_point = o + n * hmid;
@@ -463,12 +469,12 @@ fn fill_piece(
     // Rigorous fallback: piece and surface both lie within √2 r and r of the sphere centre.
     let cap = (1.0 + std::f64::consts::SQRT_2) * node.radius;
 
-    let mut sorted = std::mem::take(&mut scratch.pts);
+    let mut pts = std::mem::take(&mut scratch.pts);
     let mut hull = std::mem::take(&mut scratch.hull);
-    // Keep the unsorted projections for the deviation below.
-    let unsorted = sorted.clone();
-    convex_hull_2d(&mut sorted, &mut hull);
-    scratch.pts = sorted;
+    pts.clear();
+    pts.extend(scratch.corners.iter().map(|c| [c[0], c[1]]));
+    convex_hull_2d(&mut pts, &mut hull);
+    scratch.pts = pts;
     if hull.len() < 3 {
         node.deviation = Real::INFINITY;
         scratch.hull = hull;
@@ -480,9 +486,9 @@ fn fill_piece(
     // Surface → piece: distance to a convex set is convex, so the corners bound every point of
     // the triangles.
     let mut s_out: Real = 0.0;
-    for (p, h) in unsorted.iter().zip(scratch.heights.iter()) {
-        let dh = h - hmid;
-        let d2 = dist_to_polygon_2d(*p, &hull);
+    for c in &scratch.corners {
+        let dh = c[2] - hmid;
+        let d2 = dist_to_polygon_2d([c[0], c[1]], &hull);
         s_out = s_out.max((dh * dh + d2 * d2).sqrt());
     }
     node.deviation = s_out.min(cap);
@@ -558,12 +564,19 @@ fn piece_to_surface(
         [u.dot(&d), w.dot(&d)]
     };
     let to3 = |p: &[Real; 2]| o + u * p[0] + w * p[1];
-    let term = |m: usize, q: &Vec3| -> Real {
+    // `term(m, q, limit)`: the smaller of m's two bounds at q when it is below `limit`, else some
+    // value at least `limit`. The polygon distance (the costly part) is skipped when its lower
+    // bound, the distance to m's plane, already reaches the sphere bound or `limit`: the result
+    // is then the same as with it.
+    let term = |m: usize, q: &Vec3, limit: Real| -> Real {
         let nm = &nodes[m];
-        let mut t = (q - nm.center).norm() + nm.radius;
-        if nm.deviation.is_finite() && pieces[m].1 >= 3 {
-            let (verts, len) = &pieces[m];
-            t = t.min(point_polygon_distance(q, &verts[..*len], &nm.normal) + nm.deviation);
+        let t = (q - nm.center).norm() + nm.radius;
+        let (verts, len) = &pieces[m];
+        if nm.deviation.is_finite() && *len >= 3 {
+            let plane = nm.normal.dot(&(q - verts[0])).abs() + nm.deviation;
+            if plane < t.min(limit) {
+                return t.min(point_polygon_distance(q, &verts[..*len], &nm.normal) + nm.deviation);
+            }
         }
         t
     };
@@ -602,7 +615,7 @@ fn piece_to_surface(
         for &m in cands {
             let mut worst: Real = 0.0;
             for v in verts {
-                worst = worst.max(term(m, &to3(v)));
+                worst = worst.max(term(m, &to3(v), best));
                 if worst >= best {
                     break;
                 }
@@ -634,7 +647,7 @@ fn piece_to_surface(
             }
             let mut b: Real = 0.0;
             for v in inside.as_slice() {
-                b = b.max(term(*m, &to3(v)));
+                b = b.max(term(*m, &to3(v), Real::INFINITY));
             }
             if b > s_in {
                 // Slivers left by rounding can land on a poor candidate: try every term.

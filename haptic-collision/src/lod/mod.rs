@@ -20,7 +20,12 @@
 //!
 //! Contact convention (haptic-core [`Contact`](haptic_core::Contact)): `p_a` on the tool, `p_b` on
 //! the obstacle, `n` out of the tool, `depth_m = −distance` when apart and the separating-axis
-//! penetration depth of the two convex features when they intersect (see [`crate::geometry`]).
+//! penetration depth of the two triangles when they intersect (see [`crate::geometry`]). This
+//! depth is per triangle pair: a triangle that has sunk below the obstacle's surface without
+//! crossing any of its triangles is reported at its distance, as a pre-contact, so deep
+//! penetration of one solid into the other is not measured (parry's depth has the same limit).
+//! Coarse pairs report what their triangle pairs would: crossing pieces as touching (depth 0),
+//! and their extra samples at their distance to the obstacle piece.
 //! `feature_a`/`feature_b` are the source triangle indices for exact (triangle-pair) contacts and
 //! [`NO_FEATURE`](haptic_core::NO_FEATURE) for contacts between coarse pieces.
 

@@ -136,14 +136,18 @@ fn apart_along_centroids(a: &[Vec3], b: &[Vec3], delta: Real) -> bool {
 /// The extra contacts of a coarse (piece–piece) pair: the regions within `δ` are sampled at the
 /// tool piece's vertices and centroid, each against the obstacle piece, so that a coarse pair
 /// reports a spread of depths like the triangle pairs it stands for, not only its closest
-/// approach. Outside: `depth = −distance` to the obstacle piece, `n` along the closest-point
-/// direction. When the pieces intersect, a sample below the obstacle piece (inside its prism)
-/// gets `depth = −height` along the obstacle normal and `n = −n_b`.
+/// approach. Each sample reports what a triangle pair reports, a distance: `depth = −distance`
+/// to the obstacle piece and `n` along the closest-point direction, on whichever side of the
+/// obstacle piece it lies. (A triangle that lies below the obstacle's surface by `h` is, for
+/// every triangle pair it belongs to, `h` away; giving coarse samples a positive depth there
+/// made the coarse levels push much harder than threshold 0 on the jaws.) For the same reason
+/// the caller reports crossing pieces as touching (depth 0) rather than with the pieces'
+/// separating-axis depth, which measures how two large polygons cross and is not bounded by
+/// the size of the triangles below them.
 fn emit_samples(
     a: &[Vec3],
     b: &[Vec3],
     nb: &Vec3,
-    pc: &PairContact,
     delta: Real,
     frames: &Frames,
     out: &mut ContactSet,
@@ -152,27 +156,15 @@ fn emit_samples(
     for x in a.iter().chain(std::iter::once(&centroid)) {
         let c = closest_point_on_polygon(x, b, nb);
         let d = (c - x).norm();
-        let height = nb.dot(&(x - b[0]));
-        // Inside: the pieces intersect and x lies below the obstacle piece, within its prism
-        // (then the closest point is exactly x's projection).
-        let sample = if pc.distance == 0.0 && height < 0.0 && c == x - nb * height {
-            PairContact {
-                p_a: *x,
-                p_b: c,
-                n: -nb,
-                depth: -height,
-                distance: 0.0,
-            }
-        } else if d > 0.0 {
-            PairContact {
-                p_a: *x,
-                p_b: c,
-                n: (c - x) / d,
-                depth: -d,
-                distance: d,
-            }
-        } else {
+        if d <= 0.0 {
             continue;
+        }
+        let sample = PairContact {
+            p_a: *x,
+            p_b: c,
+            n: (c - x) / d,
+            depth: -d,
+            distance: d,
         };
         if sample.depth >= -delta {
             frames.emit(&sample, NO_FEATURE, NO_FEATURE, out)?;
@@ -237,8 +229,11 @@ pub(crate) fn collide(
             if leaf_a && leaf_b {
                 frames.emit(&pc, a.triangle, b.triangle, out)?;
             } else {
-                frames.emit(&pc, NO_FEATURE, NO_FEATURE, out)?;
-                emit_samples(&buf[..len], pb, &b.normal, &pc, walk.delta_m, frames, out)?;
+                // Crossing pieces report touching (depth 0), see `emit_samples`.
+                let mut touching = pc;
+                touching.depth = touching.depth.min(0.0);
+                frames.emit(&touching, NO_FEATURE, NO_FEATURE, out)?;
+                emit_samples(&buf[..len], pb, &b.normal, walk.delta_m, frames, out)?;
             }
             continue;
         }
