@@ -1,6 +1,622 @@
-//! Benchmark `collision`: being written.
+//! Benchmark `collision`: query time against wrench error, `ParryBackend` and `LodBackend` at the
+//! paper's error thresholds, on one replayed sequence of tool poses near contact.
+//!
+//! `cargo xtask bench collision [--scene jaws|spoon-cup|FILE_A,FILE_B] [--scale S] [--out DIR]
+//! [--quick]`
+//!
+//! - Scenes: `jaws` (upper jaw as the tool over the lower one, in millimetres), `spoon-cup`
+//!   (Newell teaspoon in the teacup, metres), or two mesh files (tool, obstacle) with a unit
+//!   scale. The tool's body frame is its centre of mass (bounding-box centre if the mass
+//!   properties are refused).
+//! - Poses: 200 along one smooth closed path near contact (see [`jaws_poses`] and
+//!   [`approach_poses`]), replayed in order by every run; `--quick` replays them once, the full
+//!   run three times (times pooled).
+//! - Runs: parry, then LOD at thresholds 0, 0.4 %, 1 %, 2.5 % and 5 % of the tool's bounding
+//!   radius.
+//! - Wrench: contacts → K = 5 weighted k-means clustering (formulation.md, Algorithm VI.1, warm
+//!   started from the previous pose of the same run; a stand-in for `haptic_cluster::Clusterer`,
+//!   which had not landed when this was written) → penalty force `F_k = −k_c (d_k + δ) n_k` at
+//!   each representative, torque `(c_k − x) × F_k` about the tool origin. Error: per pose,
+//!   `|W − W₀| / |W₀|` with `W = (F, T / r)`, `r` the tool's bounding radius and `W₀` the LOD
+//!   threshold-0 wrench; the median over the poses is reported.
+//! - Output: `DIR/collision.json` and `DIR/collision_work_precision.svg`.
+
+use std::path::Path;
+use std::time::Instant;
+
+use anyhow::{Context, bail};
+use haptic_collision::{LoadOptions, LodBackend, ParryBackend, TriMesh};
+use haptic_core::{CollisionBackend, ContactSet, Pose, QueryParams, Real, Vec3};
+use nalgebra::UnitQuaternion;
+use serde_json::json;
+
+use crate::common;
+use crate::plot::{self, Chart, Scale, Series};
+
+/// LOD error thresholds, fractions of the tool's bounding radius.
+const THRESHOLDS: [Real; 5] = [0.0, 0.004, 0.01, 0.025, 0.05];
+/// Poses per sequence.
+const POSES: usize = 200;
+/// Clusters (the paper's K).
+const K: usize = 5;
+/// Lloyd iterations at most.
+const LLOYD_ITERS: usize = 50;
+
+/// A tool, one obstacle, the pose sequence and the query parameters.
+struct Scene {
+    name: String,
+    tool: TriMesh,
+    obstacle: TriMesh,
+    poses: Vec<Pose>,
+    delta_m: Real,
+    k_c: Real,
+    description: String,
+}
 
 /// Runs the benchmark.
-pub fn run(_args: &super::BenchArgs) -> anyhow::Result<()> {
-    anyhow::bail!("benchmark collision has not landed yet")
+pub fn run(args: &super::BenchArgs) -> anyhow::Result<()> {
+    let dir = args.out.dir("collision")?;
+    let scene = load_scene(args)?;
+    let passes = if args.out.quick { 1 } else { 3 };
+    println!(
+        "collision bench: scene {}, {} + {} triangles, {} poses × {passes}, δ = {} mm",
+        scene.name,
+        scene.tool.triangles().len(),
+        scene.obstacle.triangles().len(),
+        scene.poses.len(),
+        scene.delta_m * 1e3
+    );
+    let obstacles = [(scene.obstacle.clone(), Pose::identity())];
+
+    let t = Instant::now();
+    let mut lod = LodBackend::new(&scene.tool, &obstacles)?;
+    let lod_build_s = t.elapsed().as_secs_f64();
+    let bs = lod.build_stats().clone();
+    let t = Instant::now();
+    let mut parry = ParryBackend::new(&scene.tool, &obstacles)?;
+    let parry_build_s = t.elapsed().as_secs_f64();
+    println!(
+        "build: lod {lod_build_s:.3} s (tool {:.3} s, obstacle {:.3} s, {:.1} MB), parry {parry_build_s:.3} s",
+        bs.tool.build_s,
+        bs.obstacles[0].build_s,
+        lod.memory_bytes() as Real / 1e6
+    );
+    let radius = lod.tool_bounding_radius_m();
+
+    // Reference run first (LOD at threshold 0), then the others.
+    let reference = run_backend(&mut lod, &scene, 0.0, passes, radius, None)?;
+    let mut rows = Vec::new();
+    let parry_run = run_backend(&mut parry, &scene, 0.0, passes, radius, Some(&reference))?;
+    rows.push(row("parry", 0.0, &parry_run, parry_build_s));
+    for &th in &THRESHOLDS {
+        if th == 0.0 {
+            // The reference itself (its errors are zero by definition).
+            let mut r = reference.clone();
+            r.errors = vec![0.0; r.wrenches.len()];
+            rows.push(row("lod", th, &r, lod_build_s));
+        } else {
+            let r = run_backend(&mut lod, &scene, th, passes, radius, Some(&reference))?;
+            rows.push(row("lod", th, &r, lod_build_s));
+        }
+    }
+    for r in &rows {
+        println!(
+            "{:>6} {:>6.1} %: median {:>9.1} µs, p99 {:>9.1} µs, contacts {:>8.1}, node pairs {:>9.0}, wrench error median {:.3} (p90 {:.3})",
+            r["backend"].as_str().unwrap_or(""),
+            r["threshold"].as_f64().unwrap_or(0.0) * 100.0,
+            r["median_s"].as_f64().unwrap_or(0.0) * 1e6,
+            r["p99_s"].as_f64().unwrap_or(0.0) * 1e6,
+            r["contacts_mean"].as_f64().unwrap_or(0.0),
+            r["node_pairs_mean"].as_f64().unwrap_or(0.0),
+            r["wrench_error_rel_median"].as_f64().unwrap_or(0.0),
+            r["wrench_error_rel_p90"].as_f64().unwrap_or(0.0),
+        );
+    }
+    let median_of = |b: &str, th: Real| {
+        rows.iter()
+            .find(|r| {
+                r["backend"] == b && (r["threshold"].as_f64().unwrap_or(-1.0) - th).abs() < 1e-12
+            })
+            .and_then(|r| r["median_s"].as_f64())
+    };
+    let speedup = match (median_of("parry", 0.0), median_of("lod", 0.025)) {
+        (Some(p), Some(l)) if l > 0.0 => p / l,
+        _ => Real::NAN,
+    };
+    println!("LOD at 2.5 % is {speedup:.1}× faster than parry (median query time)");
+
+    // A far tool costs the broad phase only.
+    let far = Pose::from_position(Vec3::new(10.0, 10.0, 10.0));
+    let mut out = ContactSet::new();
+    let params = QueryParams::new(scene.delta_m, 0.025)?;
+    let t = Instant::now();
+    for _ in 0..10_000 {
+        lod.query(&far, &params, &mut out)?;
+    }
+    let far_s = t.elapsed().as_secs_f64() / 10_000.0;
+
+    let value = json!({
+        "scene": scene.name,
+        "description": scene.description,
+        "delta_m": scene.delta_m,
+        "k_c_n_per_m": scene.k_c,
+        "poses": scene.poses.len(),
+        "passes": passes,
+        "tool_bounding_radius_m": radius,
+        "wrench": "contacts -> K = 5 weighted k-means (w = d + delta, warm start from the previous pose, formulation.md Alg. VI.1; stand-in for haptic_cluster) -> F_k = -k_c (d_k + delta) n_k, T_k = (c_k - x) x F_k; error |W - W0| / |W0| with W = (F, T / r), W0 = LOD at threshold 0",
+        "builds": [
+            {"backend": "lod", "mesh": "tool", "triangles": bs.tool.triangles, "nodes": bs.tool.nodes, "build_s": bs.tool.build_s},
+            {"backend": "lod", "mesh": "obstacle", "triangles": bs.obstacles[0].triangles, "nodes": bs.obstacles[0].nodes, "build_s": bs.obstacles[0].build_s},
+            {"backend": "lod", "mesh": "both", "build_s": lod_build_s, "memory_bytes": lod.memory_bytes()},
+            {"backend": "parry", "mesh": "both", "build_s": parry_build_s},
+        ],
+        "lod_build_s": lod_build_s,
+        "parry_build_s": parry_build_s,
+        "far_tool_query_s": far_s,
+        "speedup_lod_2_5_percent_vs_parry": speedup,
+        "rows": rows,
+    });
+    common::write_json(&dir.join("collision.json"), &value)?;
+
+    let lod_points: Vec<(f64, f64)> = rows
+        .iter()
+        .filter(|r| r["backend"] == "lod")
+        .filter_map(|r| {
+            Some((
+                r["wrench_error_rel_median"].as_f64()?,
+                r["median_s"].as_f64()? * 1e3,
+            ))
+        })
+        .collect();
+    let parry_points: Vec<(f64, f64)> = rows
+        .iter()
+        .filter(|r| r["backend"] == "parry")
+        .filter_map(|r| {
+            Some((
+                r["wrench_error_rel_median"].as_f64()?,
+                r["median_s"].as_f64()? * 1e3,
+            ))
+        })
+        .collect();
+    plot::line_chart(
+        &dir.join("collision_work_precision.svg"),
+        &Chart {
+            title: &format!(
+                "Collision queries, {} (thresholds 5 %, 2.5 %, 1 %, 0.4 %; 0 has no error)",
+                scene.name
+            ),
+            x_label: "median wrench error relative to LOD at threshold 0",
+            y_label: "median query time (ms)",
+            x_scale: Scale::Log,
+            y_scale: Scale::Log,
+        },
+        &[
+            Series::new("LOD", lod_points),
+            Series::new("parry", parry_points),
+        ],
+    )?;
+    Ok(())
+}
+
+/// What one run measured.
+#[derive(Clone)]
+struct RunResult {
+    times_s: Vec<Real>,
+    contacts_mean: Real,
+    node_pairs_mean: Real,
+    wrenches: Vec<[Real; 6]>,
+    errors: Vec<Real>,
+    /// Cluster representatives (centre, depth) after each pose.
+    representatives: Vec<Vec<(Vec3, Real)>>,
+}
+
+fn row(backend: &str, threshold: Real, r: &RunResult, build_s: Real) -> serde_json::Value {
+    let mut t = r.times_s.clone();
+    t.sort_by(|a, b| a.total_cmp(b));
+    let mut e = r.errors.clone();
+    e.sort_by(|a, b| a.total_cmp(b));
+    let q = |v: &[Real], f: Real| {
+        if v.is_empty() {
+            Real::NAN
+        } else {
+            v[((v.len() - 1) as Real * f).round() as usize]
+        }
+    };
+    json!({
+        "backend": backend,
+        "threshold": threshold,
+        "median_s": q(&t, 0.5),
+        "p99_s": q(&t, 0.99),
+        "contacts_mean": r.contacts_mean,
+        "node_pairs_mean": r.node_pairs_mean,
+        "wrench_error_rel_median": q(&e, 0.5),
+        "wrench_error_rel_p90": q(&e, 0.9),
+        "wrench_error_rel_max": e.last().copied().unwrap_or(Real::NAN),
+        "build_s": build_s,
+    })
+}
+
+/// Replays the sequence `passes` times; the wrench of each pose comes from the first pass.
+fn run_backend<B: CollisionBackend>(
+    backend: &mut B,
+    scene: &Scene,
+    threshold: Real,
+    passes: usize,
+    radius: Real,
+    reference: Option<&RunResult>,
+) -> anyhow::Result<RunResult>
+where
+    B::Error: Send + Sync + 'static,
+{
+    let params = QueryParams::new(scene.delta_m, threshold)?;
+    let mut out = ContactSet::new();
+    let mut times_s = Vec::with_capacity(passes * scene.poses.len());
+    let mut wrenches = Vec::with_capacity(scene.poses.len());
+    let mut clusters = Vec::new();
+    let mut representatives = Vec::with_capacity(scene.poses.len());
+    let (mut contacts, mut node_pairs) = (0usize, 0u64);
+    for pass in 0..passes {
+        for (i, pose) in scene.poses.iter().enumerate() {
+            let t = Instant::now();
+            let st = backend.query(pose, &params, &mut out)?;
+            times_s.push(t.elapsed().as_secs_f64());
+            if pass == 0 {
+                contacts += out.len();
+                node_pairs += st.node_pairs_tested;
+                // Same seeds as the reference at this pose (see the module docs).
+                if let Some(r) = reference {
+                    clusters.clone_from(&r.representatives[i]);
+                }
+                wrenches.push(clustered_wrench(
+                    &out,
+                    scene.delta_m,
+                    scene.k_c,
+                    &pose.position,
+                    &mut clusters,
+                ));
+                representatives.push(clusters.clone());
+            }
+        }
+    }
+    let n = scene.poses.len().max(1) as Real;
+    let errors = match reference {
+        Some(r) => wrenches
+            .iter()
+            .zip(&r.wrenches)
+            .filter_map(|(w, w0)| relative_error(w, w0, radius))
+            .collect(),
+        None => Vec::new(),
+    };
+    Ok(RunResult {
+        times_s,
+        contacts_mean: contacts as Real / n,
+        node_pairs_mean: node_pairs as Real / n,
+        wrenches,
+        errors,
+        representatives,
+    })
+}
+
+/// `|W − W₀| / |W₀|` with torques divided by `lever`; `None` when both wrenches are zero.
+fn relative_error(w: &[Real; 6], w0: &[Real; 6], lever: Real) -> Option<Real> {
+    let scale = |i: usize| if i < 3 { 1.0 } else { 1.0 / lever };
+    let diff = (0..6)
+        .map(|i| ((w[i] - w0[i]) * scale(i)).powi(2))
+        .sum::<Real>()
+        .sqrt();
+    let norm = (0..6)
+        .map(|i| (w0[i] * scale(i)).powi(2))
+        .sum::<Real>()
+        .sqrt();
+    if norm > 0.0 {
+        Some(diff / norm)
+    } else if diff > 0.0 {
+        Some(1.0)
+    } else {
+        None
+    }
+}
+
+/// K-means clustering of the contacts (weights `d + δ`), warm-started from `prev` (the last
+/// pose's representatives: centre and depth), then the penalty wrench of the representatives.
+/// Returns `(F, T)` about `tool_pos`; updates `prev`.
+fn clustered_wrench(
+    contacts: &ContactSet,
+    delta: Real,
+    k_c: Real,
+    tool_pos: &Vec3,
+    prev: &mut Vec<(Vec3, Real)>,
+) -> [Real; 6] {
+    let cs = contacts.as_slice();
+    if cs.is_empty() {
+        prev.clear();
+        return [0.0; 6];
+    }
+    let w: Vec<Real> = cs
+        .iter()
+        .map(|c| (c.depth_m + delta).max(delta * 1e-3))
+        .collect();
+    let k = cs.len().min(K);
+    // Seeds: kept old clusters (deepest first) at their closest unused contact, then furthest
+    // points; a cold start begins at the deepest contact.
+    let mut seeds: Vec<usize> = Vec::with_capacity(k);
+    let mut old = prev.clone();
+    old.sort_by(|a, b| b.1.total_cmp(&a.1));
+    old.truncate(k);
+    for (c, _) in &old {
+        let best = (0..cs.len())
+            .filter(|i| !seeds.contains(i))
+            .min_by(|&a, &b| {
+                (cs[a].p_a - c)
+                    .norm_squared()
+                    .total_cmp(&(cs[b].p_a - c).norm_squared())
+            });
+        if let Some(i) = best {
+            seeds.push(i);
+        }
+    }
+    if seeds.is_empty() {
+        let deepest = (0..cs.len())
+            .max_by(|&a, &b| cs[a].depth_m.total_cmp(&cs[b].depth_m))
+            .unwrap_or(0);
+        seeds.push(deepest);
+    }
+    let mut dmin: Vec<Real> = cs
+        .iter()
+        .map(|c| {
+            seeds
+                .iter()
+                .map(|&s| (c.p_a - cs[s].p_a).norm_squared())
+                .fold(Real::INFINITY, Real::min)
+        })
+        .collect();
+    while seeds.len() < k {
+        let far = (0..cs.len())
+            .max_by(|&a, &b| dmin[a].total_cmp(&dmin[b]))
+            .unwrap_or(0);
+        seeds.push(far);
+        for (i, c) in cs.iter().enumerate() {
+            dmin[i] = dmin[i].min((c.p_a - cs[far].p_a).norm_squared());
+        }
+    }
+    let mut centres: Vec<Vec3> = seeds.iter().map(|&s| cs[s].p_a).collect();
+    let mut assign = vec![usize::MAX; cs.len()];
+    for _ in 0..LLOYD_ITERS {
+        let mut changed = false;
+        for (i, c) in cs.iter().enumerate() {
+            let j = (0..k)
+                .min_by(|&a, &b| {
+                    (c.p_a - centres[a])
+                        .norm_squared()
+                        .total_cmp(&(c.p_a - centres[b]).norm_squared())
+                })
+                .unwrap_or(0);
+            if assign[i] != j {
+                assign[i] = j;
+                changed = true;
+            }
+        }
+        let mut sum = vec![Vec3::zeros(); k];
+        let mut ws = vec![0.0; k];
+        for (i, c) in cs.iter().enumerate() {
+            sum[assign[i]] += c.p_a * w[i];
+            ws[assign[i]] += w[i];
+        }
+        for j in 0..k {
+            if ws[j] > 0.0 {
+                centres[j] = sum[j] / ws[j];
+            }
+        }
+        if !changed {
+            break;
+        }
+    }
+    let mut f = Vec3::zeros();
+    let mut t = Vec3::zeros();
+    prev.clear();
+    for (j, centre) in centres.iter().enumerate() {
+        let (mut nsum, mut dsum, mut ws) = (Vec3::zeros(), 0.0, 0.0);
+        for (i, c) in cs.iter().enumerate() {
+            if assign[i] == j {
+                nsum += c.n * w[i];
+                dsum += c.depth_m * w[i];
+                ws += w[i];
+            }
+        }
+        let len = nsum.norm();
+        if ws <= 0.0 || len == 0.0 {
+            continue;
+        }
+        let n = nsum / len;
+        let d = dsum / ws;
+        prev.push((*centre, d));
+        let fk = -n * (k_c * (d + delta).max(0.0));
+        f += fk;
+        t += (centre - tool_pos).cross(&fk);
+    }
+    [f.x, f.y, f.z, t.x, t.y, t.z]
+}
+
+fn load_scene(args: &super::BenchArgs) -> anyhow::Result<Scene> {
+    let meshes = common::meshes_dir();
+    match args.scene.as_str() {
+        "jaws" => {
+            let scale = args.scale.unwrap_or(1e-3);
+            let (tool, com) = load_tool(&meshes.join("jaw_upper_openfulljaw_p26.stl"), scale)?;
+            let (obstacle, _) = TriMesh::load(
+                meshes.join("jaw_lower_openfulljaw_p26.stl"),
+                &LoadOptions::with_scale(scale),
+            )?;
+            Ok(Scene {
+                name: "jaws".into(),
+                poses: jaws_poses(&com),
+                tool,
+                obstacle,
+                delta_m: 1e-3,
+                k_c: 5000.0,
+                description: "upper jaw (47,332 triangles, tool, body frame at its centre of mass) over the lower jaw (40,174), in occlusion as stored, moved along a closed path by up to 0.5 mm sideways, -0.1..+0.5 mm vertically and 0.3 degrees".into(),
+            })
+        }
+        "spoon-cup" => {
+            let scale = args.scale.unwrap_or(1.0);
+            let (tool, _) = load_tool(&meshes.join("newell_teaspoon.stl"), scale)?;
+            let (obstacle, _) = TriMesh::load(
+                meshes.join("newell_teacup.stl"),
+                &LoadOptions::with_scale(scale),
+            )?;
+            // Bowl down into the cup (cup axis +y): the spoon turned upside down, tilted 20°.
+            let orientation =
+                UnitQuaternion::from_scaled_axis(Vec3::new(0.0, 0.0, 1.0) * std::f64::consts::PI)
+                    * UnitQuaternion::from_scaled_axis(Vec3::new(0.35, 0.0, 0.0));
+            let delta = 1e-3;
+            let poses = approach_poses(&tool, &obstacle, orientation, Vec3::y(), delta)?;
+            Ok(Scene {
+                name: "spoon-cup".into(),
+                tool,
+                obstacle,
+                poses,
+                delta_m: delta,
+                k_c: 2000.0,
+                description: "Newell teaspoon (1,344 triangles, tool) lowered bowl first into the Newell teacup (4,004) until it touches, then moved around that pose".into(),
+            })
+        }
+        pair => {
+            let Some((a, b)) = pair.split_once(',') else {
+                bail!("unknown scene `{pair}`: use jaws, spoon-cup or FILE_A,FILE_B");
+            };
+            let scale = args.scale.unwrap_or(1.0);
+            let (tool, _) = load_tool(Path::new(a), scale)?;
+            let (obstacle, _) = TriMesh::load(b, &LoadOptions::with_scale(scale))
+                .with_context(|| format!("loading {b}"))?;
+            let (lo, hi) = tool.bounding_box();
+            let delta = 0.01 * (hi - lo).norm();
+            let poses = approach_poses(
+                &tool,
+                &obstacle,
+                UnitQuaternion::identity(),
+                Vec3::z(),
+                delta,
+            )?;
+            Ok(Scene {
+                name: format!("{}+{}", file_name(Path::new(a)), file_name(Path::new(b))),
+                tool,
+                obstacle,
+                poses,
+                delta_m: delta,
+                k_c: 2000.0,
+                description: format!(
+                    "{a} (tool) lowered along -z onto {b} until it touches, then moved around that pose; delta = 1 % of the tool's diagonal"
+                ),
+            })
+        }
+    }
+}
+
+fn file_name(p: &Path) -> String {
+    p.file_name()
+        .map(|s| s.to_string_lossy().into_owned())
+        .unwrap_or_default()
+}
+
+/// Loads a tool and moves its body frame to its centre of mass (or, if the mass properties are
+/// refused, e.g. for an open mesh, to its bounding-box centre). Returns the mesh in its body
+/// frame and where that origin was in the file's frame (m).
+fn load_tool(path: &Path, scale: Real) -> anyhow::Result<(TriMesh, Vec3)> {
+    let (mesh, _) = TriMesh::load(path, &LoadOptions::with_scale(scale))
+        .with_context(|| format!("loading {}", path.display()))?;
+    let origin = match mesh.mass_properties(1000.0) {
+        Ok(mp) => mp.centre_of_mass_m,
+        Err(_) => {
+            let (lo, hi) = mesh.bounding_box();
+            (lo + hi) * 0.5
+        }
+    };
+    Ok((mesh.translated(&-origin)?, origin))
+}
+
+/// The jaws: the upper jaw at its stored place in occlusion (body origin at `com`), moved along a
+/// closed path by up to 0.5 mm sideways, from 0.1 mm down to 0.5 mm up, and tilted by up to 0.3°.
+fn jaws_poses(com: &Vec3) -> Vec<Pose> {
+    (0..POSES)
+        .map(|i| {
+            let s = i as Real / POSES as Real * std::f64::consts::TAU;
+            let dp = Vec3::new(
+                0.5e-3 * s.sin(),
+                0.5e-3 * (2.0 * s).cos(),
+                0.3e-3 * (3.0 * s).sin() + 0.2e-3,
+            );
+            let rot = UnitQuaternion::from_scaled_axis(Vec3::new(
+                0.005 * s.cos(),
+                0.005 * s.sin(),
+                0.003 * (2.0 * s).sin(),
+            ));
+            Pose {
+                position: com + dp,
+                orientation: rot,
+            }
+        })
+        .collect()
+}
+
+/// A tool approaching an obstacle along `−up` with a fixed orientation: bisection for the first
+/// offset with a contact within `δ` (LOD at threshold 0), then 200 poses around it: ±`δ` along
+/// `up`, ±2δ sideways, ±0.3° of tilt.
+fn approach_poses(
+    tool: &TriMesh,
+    obstacle: &TriMesh,
+    orientation: UnitQuaternion<Real>,
+    up: Vec3,
+    delta: Real,
+) -> anyhow::Result<Vec<Pose>> {
+    let mut lod = LodBackend::new(tool, &[(obstacle.clone(), Pose::identity())])?;
+    let (lo, hi) = obstacle.bounding_box();
+    let centre = (lo + hi) * 0.5;
+    let reach = (hi - lo).norm() + 2.0 * lod.tool_bounding_radius_m();
+    let params = QueryParams::new(delta, 0.0)?;
+    let mut out = ContactSet::new();
+    let mut touches = |t: Real| -> anyhow::Result<bool> {
+        let pose = Pose {
+            position: centre + up * (reach - t),
+            orientation,
+        };
+        lod.query(&pose, &params, &mut out)?;
+        Ok(!out.is_empty())
+    };
+    let (mut a, mut b) = (0.0, reach + 0.5 * (hi - lo).dot(&up).abs());
+    if touches(a)? || !touches(b)? {
+        bail!("cannot find a first contact along the approach direction");
+    }
+    for _ in 0..60 {
+        let m = 0.5 * (a + b);
+        if touches(m)? {
+            b = m;
+        } else {
+            a = m;
+        }
+    }
+    // At `b` the closest approach is just below δ: the surfaces touch about δ further in.
+    let touch = centre + up * (reach - b - delta);
+    let side = {
+        let s = if up.x.abs() < 0.9 {
+            Vec3::x()
+        } else {
+            Vec3::y()
+        };
+        let s1 = (s - up * up.dot(&s)).normalize();
+        (s1, up.cross(&s1))
+    };
+    Ok((0..POSES)
+        .map(|i| {
+            let s = i as Real / POSES as Real * std::f64::consts::TAU;
+            let dp = up * (delta * (3.0 * s).sin())
+                + side.0 * (2.0 * delta * s.sin())
+                + side.1 * (2.0 * delta * (2.0 * s).cos());
+            let tilt =
+                UnitQuaternion::from_scaled_axis((side.0 * s.cos() + side.1 * s.sin()) * 0.005);
+            Pose {
+                position: touch + dp,
+                orientation: tilt * orientation,
+            }
+        })
+        .collect())
 }
