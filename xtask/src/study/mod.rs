@@ -1,8 +1,10 @@
 //! `cargo xtask study …`: the paper's experiments.
 
+mod contact_run;
 mod cup;
 mod free_space;
 mod jaws;
+mod report;
 
 use crate::OutArgs;
 
@@ -28,7 +30,8 @@ pub fn run(which: Study) -> anyhow::Result<()> {
         Study::All(a) => {
             free_space::run(&a)?;
             cup::run(&a)?;
-            jaws::run(&a)
+            jaws::run(&a)?;
+            report::write(&a)
         }
     }
 }
