@@ -36,7 +36,7 @@ const DURATION_S: Real = 2.5;
 const STEPS: usize = 2500;
 /// Grasp point in the spoon's body frame (m from the centre of mass): on the handle, 3.5 cm
 /// towards the handle end (the mesh's `-y`).
-const GRASP_BODY_M: [Real; 3] = [0.0, -0.035, 0.0];
+pub(crate) const GRASP_BODY_M: [Real; 3] = [0.0, -0.035, 0.0];
 /// Stability bounds (see the module docs).
 const MAX_DEVIATION_M: Real = 0.1;
 const MAX_ANGLE_RAD: Real = std::f64::consts::FRAC_PI_2;
@@ -134,7 +134,7 @@ fn min_jerk(t: Real, t0: Real, dur: Real) -> (Real, Real) {
 }
 
 /// The handle's pose and twist at `t_s`, starting at the origin with identity orientation.
-fn hand_at(t_s: Real) -> (Vec3, UnitQuaternion<Real>, Vec3, Vec3) {
+pub(crate) fn hand_at(t_s: Real) -> (Vec3, UnitQuaternion<Real>, Vec3, Vec3) {
     use std::f64::consts::TAU;
     let mut p = Vec3::zeros();
     let mut v = Vec3::zeros();
@@ -231,11 +231,11 @@ fn read_trajectory(path: &Path) -> anyhow::Result<Vec<DeviceState>> {
 // ---------------------------------------------------------------------------------------------
 
 /// Mass properties of the spoon per kilogram, in the mesh's axes.
-struct SpoonShape {
+pub(crate) struct SpoonShape {
     /// Centre of mass in mesh coordinates, m.
-    com_m: Vec3,
+    pub(crate) com_m: Vec3,
     /// Inertia about the centre of mass per unit mass, m² (multiply by the mass).
-    inertia_per_kg: Mat3,
+    pub(crate) inertia_per_kg: Mat3,
     /// Enclosed volume, m³.
     volume_m3: Real,
     /// Extent along the mesh's y axis, m.
@@ -250,7 +250,7 @@ struct SpoonShape {
 }
 
 /// Reads a binary STL's triangles.
-fn read_stl(path: &Path) -> anyhow::Result<Vec<[Vec3; 3]>> {
+pub(crate) fn read_stl(path: &Path) -> anyhow::Result<Vec<[Vec3; 3]>> {
     let bytes = std::fs::read(path).with_context(|| format!("reading {}", path.display()))?;
     if bytes.len() < 84 {
         bail!("{}: too short for binary STL", path.display());
@@ -297,7 +297,7 @@ fn volume_integrals(tris: &[[Vec3; 3]], origin: &Vec3) -> (Real, Vec3, Mat3) {
 /// handle end. The divergence theorem then depends (slightly) on the origin of the tetrahedra:
 /// we integrate from the bounding-box centre and report how much the volume changes when the
 /// origin moves by the spoon's length, which bounds the slits' effect.
-fn spoon_shape(path: &Path) -> anyhow::Result<SpoonShape> {
+pub(crate) fn spoon_shape(path: &Path) -> anyhow::Result<SpoonShape> {
     let tris = read_stl(path)?;
     let (mut lo, mut hi) = (
         Vec3::repeat(Real::INFINITY),

@@ -2,7 +2,7 @@
 
 mod contact_run;
 mod cup;
-mod free_space;
+pub(crate) mod free_space;
 mod jaws;
 mod report;
 
