@@ -20,8 +20,10 @@
 //!
 //! Parry's own temporal coherence (reusing last query's manifold points while the pose changes
 //! by less than 1° and 1 mm) is switched off: every query recomputes every manifold, so results
-//! do not depend on the previous query. Cost, measured on a 2-core machine: about 2 ms per query
-//! for a small contact patch between two 40 k-triangle meshes, about 40 ms for a ring contact.
+//! do not depend on the previous query. Cost on the shared jaws (47 k and 40 k triangles, 2-core
+//! machine, release): about 9 ms for a small patch (40 triangle pairs within δ = 0.5 mm), 55 ms
+//! for the ring of contacts of the jaws in occlusion at δ = 0.5 mm, 190 ms at δ = 1 mm; building
+//! both meshes takes about 0.1 s.
 
 use std::time::Instant;
 

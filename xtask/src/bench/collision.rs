@@ -13,10 +13,10 @@
 //!   run three times (times pooled).
 //! - Runs: parry, then LOD at thresholds 0, 0.4 %, 1 %, 2.5 % and 5 % of the tool's bounding
 //!   radius.
-//! - Wrench: contacts → K = 5 weighted k-means clustering (formulation.md, Algorithm VI.1, warm
-//!   started from the previous pose of the same run; a stand-in for `haptic_cluster::Clusterer`,
-//!   which had not landed when this was written) → penalty force `F_k = −k_c (d_k + δ) n_k` at
-//!   each representative, torque `(c_k − x) × F_k` about the tool origin. Error: per pose,
+//! - Wrench: contacts → `haptic_cluster::Clusterer` (K = 5, weights `d + δ`, warm start from the
+//!   previous pose of the same run) → `haptic_dynamics::penalty::PenaltyModel` at the
+//!   representatives (`k_c`, no damping: the tool is at rest at each pose), torque about the
+//!   tool origin. Error: per pose,
 //!   `|W − W₀| / |W₀|` with `W = (F, T / r)`, `r` the tool's bounding radius and `W₀` the LOD
 //!   threshold-0 wrench; the median over the poses is reported.
 //! - Output: `DIR/collision.json` and `DIR/collision_work_precision.svg`.
@@ -25,8 +25,13 @@ use std::path::Path;
 use std::time::Instant;
 
 use anyhow::{Context, bail};
+use haptic_cluster::{ClusterParams, Clusterer};
 use haptic_collision::{LoadOptions, LodBackend, ParryBackend, TriMesh};
-use haptic_core::{CollisionBackend, ContactSet, Pose, QueryParams, Real, Vec3};
+use haptic_core::{
+    CollisionBackend, ContactModel, ContactSet, Kinematics, Pose, QueryParams, Real, RigidBody,
+    ToolState, Vec3,
+};
+use haptic_dynamics::penalty::{PenaltyModel, PenaltyParams};
 use nalgebra::UnitQuaternion;
 use serde_json::json;
 
@@ -37,10 +42,6 @@ use crate::plot::{self, Chart, Scale, Series};
 const THRESHOLDS: [Real; 5] = [0.0, 0.004, 0.01, 0.025, 0.05];
 /// Poses per sequence.
 const POSES: usize = 200;
-/// Clusters (the paper's K).
-const K: usize = 5;
-/// Lloyd iterations at most.
-const LLOYD_ITERS: usize = 50;
 
 /// A tool, one obstacle, the pose sequence and the query parameters.
 struct Scene {
@@ -143,7 +144,7 @@ pub fn run(args: &super::BenchArgs) -> anyhow::Result<()> {
         "poses": scene.poses.len(),
         "passes": passes,
         "tool_bounding_radius_m": radius,
-        "wrench": "contacts -> K = 5 weighted k-means (w = d + delta, warm start from the previous pose, formulation.md Alg. VI.1; stand-in for haptic_cluster) -> F_k = -k_c (d_k + delta) n_k, T_k = (c_k - x) x F_k; error |W - W0| / |W0| with W = (F, T / r), W0 = LOD at threshold 0",
+        "wrench": "contacts -> haptic_cluster::Clusterer (K = 5, w = d + delta, warm start from the previous pose of the run) -> haptic_dynamics::penalty::PenaltyModel (k_c, b_c = 0, tool at rest), torque about the tool origin; error |W - W0| / |W0| with W = (F, T / r), W0 = LOD at threshold 0",
         "builds": [
             {"backend": "lod", "mesh": "tool", "triangles": bs.tool.triangles, "nodes": bs.tool.nodes, "build_s": bs.tool.build_s},
             {"backend": "lod", "mesh": "obstacle", "triangles": bs.obstacles[0].triangles, "nodes": bs.obstacles[0].nodes, "build_s": bs.obstacles[0].build_s},
@@ -168,16 +169,25 @@ pub fn run(args: &super::BenchArgs) -> anyhow::Result<()> {
             ))
         })
         .collect();
-    let parry_points: Vec<(f64, f64)> = rows
-        .iter()
-        .filter(|r| r["backend"] == "parry")
-        .filter_map(|r| {
-            Some((
-                r["wrench_error_rel_median"].as_f64()?,
-                r["median_s"].as_f64()? * 1e3,
-            ))
-        })
-        .collect();
+    // Parry has one point: drawn as a horizontal line at its median time across the LOD range
+    // (a single point would not show in a line chart); its own error is in the legend.
+    let parry = rows.iter().find(|r| r["backend"] == "parry");
+    let parry_ms = parry
+        .and_then(|r| r["median_s"].as_f64())
+        .unwrap_or(Real::NAN)
+        * 1e3;
+    let parry_err = parry
+        .and_then(|r| r["wrench_error_rel_median"].as_f64())
+        .unwrap_or(Real::NAN);
+    let xs = lod_points.iter().map(|p| p.0).filter(|x| *x > 0.0);
+    let (x0, x1) = xs.fold((Real::INFINITY, 0.0 as Real), |(lo, hi), x| {
+        (lo.min(x), hi.max(x))
+    });
+    let parry_points = if x0.is_finite() {
+        vec![(x0, parry_ms), (x1, parry_ms)]
+    } else {
+        Vec::new()
+    };
     plot::line_chart(
         &dir.join("collision_work_precision.svg"),
         &Chart {
@@ -192,7 +202,10 @@ pub fn run(args: &super::BenchArgs) -> anyhow::Result<()> {
         },
         &[
             Series::new("LOD", lod_points),
-            Series::new("parry", parry_points),
+            Series::new(
+                format!("parry (median time; its own error {parry_err:.2})"),
+                parry_points,
+            ),
         ],
     )?;
     Ok(())
@@ -206,8 +219,6 @@ struct RunResult {
     node_pairs_mean: Real,
     wrenches: Vec<[Real; 6]>,
     errors: Vec<Real>,
-    /// Cluster representatives (centre, depth) after each pose.
-    representatives: Vec<Vec<(Vec3, Real)>>,
 }
 
 fn row(backend: &str, threshold: Real, r: &RunResult, build_s: Real) -> serde_json::Value {
@@ -252,29 +263,17 @@ where
     let mut out = ContactSet::new();
     let mut times_s = Vec::with_capacity(passes * scene.poses.len());
     let mut wrenches = Vec::with_capacity(scene.poses.len());
-    let mut clusters = Vec::new();
-    let mut representatives = Vec::with_capacity(scene.poses.len());
+    let mut pipeline = WrenchPipeline::new(scene, radius)?;
     let (mut contacts, mut node_pairs) = (0usize, 0u64);
     for pass in 0..passes {
-        for (i, pose) in scene.poses.iter().enumerate() {
+        for pose in &scene.poses {
             let t = Instant::now();
             let st = backend.query(pose, &params, &mut out)?;
             times_s.push(t.elapsed().as_secs_f64());
             if pass == 0 {
                 contacts += out.len();
                 node_pairs += st.node_pairs_tested;
-                // Same seeds as the reference at this pose (see the module docs).
-                if let Some(r) = reference {
-                    clusters.clone_from(&r.representatives[i]);
-                }
-                wrenches.push(clustered_wrench(
-                    &out,
-                    scene.delta_m,
-                    scene.k_c,
-                    &pose.position,
-                    &mut clusters,
-                ));
-                representatives.push(clusters.clone());
+                wrenches.push(pipeline.wrench(&out, pose, scene.delta_m)?);
             }
         }
     }
@@ -293,7 +292,6 @@ where
         node_pairs_mean: node_pairs as Real / n,
         wrenches,
         errors,
-        representatives,
     })
 }
 
@@ -317,124 +315,48 @@ fn relative_error(w: &[Real; 6], w0: &[Real; 6], lever: Real) -> Option<Real> {
     }
 }
 
-/// K-means clustering of the contacts (weights `d + δ`), warm-started from `prev` (the last
-/// pose's representatives: centre and depth), then the penalty wrench of the representatives.
-/// Returns `(F, T)` about `tool_pos`; updates `prev`.
-fn clustered_wrench(
-    contacts: &ContactSet,
-    delta: Real,
-    k_c: Real,
-    tool_pos: &Vec3,
-    prev: &mut Vec<(Vec3, Real)>,
-) -> [Real; 6] {
-    let cs = contacts.as_slice();
-    if cs.is_empty() {
-        prev.clear();
-        return [0.0; 6];
-    }
-    let w: Vec<Real> = cs
-        .iter()
-        .map(|c| (c.depth_m + delta).max(delta * 1e-3))
-        .collect();
-    let k = cs.len().min(K);
-    // Seeds: kept old clusters (deepest first) at their closest unused contact, then furthest
-    // points; a cold start begins at the deepest contact.
-    let mut seeds: Vec<usize> = Vec::with_capacity(k);
-    let mut old = prev.clone();
-    old.sort_by(|a, b| b.1.total_cmp(&a.1));
-    old.truncate(k);
-    for (c, _) in &old {
-        let best = (0..cs.len())
-            .filter(|i| !seeds.contains(i))
-            .min_by(|&a, &b| {
-                (cs[a].p_a - c)
-                    .norm_squared()
-                    .total_cmp(&(cs[b].p_a - c).norm_squared())
-            });
-        if let Some(i) = best {
-            seeds.push(i);
-        }
-    }
-    if seeds.is_empty() {
-        let deepest = (0..cs.len())
-            .max_by(|&a, &b| cs[a].depth_m.total_cmp(&cs[b].depth_m))
-            .unwrap_or(0);
-        seeds.push(deepest);
-    }
-    let mut dmin: Vec<Real> = cs
-        .iter()
-        .map(|c| {
-            seeds
-                .iter()
-                .map(|&s| (c.p_a - cs[s].p_a).norm_squared())
-                .fold(Real::INFINITY, Real::min)
+/// The contact wrench of one pose: contacts → `haptic_cluster::Clusterer` (K = 5, warm start
+/// from this run's previous pose) → `haptic_dynamics::penalty::PenaltyModel` at the
+/// representatives, with the tool at rest at `pose` (so damping plays no part). `(F, T)`, the
+/// torque about the tool origin.
+struct WrenchPipeline {
+    clusterer: Clusterer,
+    model: PenaltyModel,
+    body: RigidBody,
+    reps: ContactSet,
+}
+
+impl WrenchPipeline {
+    fn new(scene: &Scene, radius: Real) -> anyhow::Result<Self> {
+        Ok(Self {
+            clusterer: Clusterer::new(ClusterParams::default())?,
+            model: PenaltyModel::new(PenaltyParams {
+                stiffness_n_per_m: scene.k_c,
+                damping_ns_per_m: 0.0,
+                delta_m: scene.delta_m,
+            })?,
+            body: RigidBody::sphere(0.01, radius)?,
+            reps: ContactSet::new(),
         })
-        .collect();
-    while seeds.len() < k {
-        let far = (0..cs.len())
-            .max_by(|&a, &b| dmin[a].total_cmp(&dmin[b]))
-            .unwrap_or(0);
-        seeds.push(far);
-        for (i, c) in cs.iter().enumerate() {
-            dmin[i] = dmin[i].min((c.p_a - cs[far].p_a).norm_squared());
-        }
     }
-    let mut centres: Vec<Vec3> = seeds.iter().map(|&s| cs[s].p_a).collect();
-    let mut assign = vec![usize::MAX; cs.len()];
-    for _ in 0..LLOYD_ITERS {
-        let mut changed = false;
-        for (i, c) in cs.iter().enumerate() {
-            let j = (0..k)
-                .min_by(|&a, &b| {
-                    (c.p_a - centres[a])
-                        .norm_squared()
-                        .total_cmp(&(c.p_a - centres[b]).norm_squared())
-                })
-                .unwrap_or(0);
-            if assign[i] != j {
-                assign[i] = j;
-                changed = true;
-            }
-        }
-        let mut sum = vec![Vec3::zeros(); k];
-        let mut ws = vec![0.0; k];
-        for (i, c) in cs.iter().enumerate() {
-            sum[assign[i]] += c.p_a * w[i];
-            ws[assign[i]] += w[i];
-        }
-        for j in 0..k {
-            if ws[j] > 0.0 {
-                centres[j] = sum[j] / ws[j];
-            }
-        }
-        if !changed {
-            break;
-        }
+
+    fn wrench(
+        &mut self,
+        contacts: &ContactSet,
+        pose: &Pose,
+        delta: Real,
+    ) -> anyhow::Result<[Real; 6]> {
+        self.clusterer
+            .cluster(contacts.as_slice(), delta, &mut self.reps)?;
+        let y = ToolState::at_rest(pose).to_vector();
+        let kin = Kinematics::new(&self.body, &y);
+        let w = self
+            .model
+            .evaluate(&self.body, &y, &kin, self.reps.as_slice(), None)?;
+        Ok([
+            w.force.x, w.force.y, w.force.z, w.torque.x, w.torque.y, w.torque.z,
+        ])
     }
-    let mut f = Vec3::zeros();
-    let mut t = Vec3::zeros();
-    prev.clear();
-    for (j, centre) in centres.iter().enumerate() {
-        let (mut nsum, mut dsum, mut ws) = (Vec3::zeros(), 0.0, 0.0);
-        for (i, c) in cs.iter().enumerate() {
-            if assign[i] == j {
-                nsum += c.n * w[i];
-                dsum += c.depth_m * w[i];
-                ws += w[i];
-            }
-        }
-        let len = nsum.norm();
-        if ws <= 0.0 || len == 0.0 {
-            continue;
-        }
-        let n = nsum / len;
-        let d = dsum / ws;
-        prev.push((*centre, d));
-        let fk = -n * (k_c * (d + delta).max(0.0));
-        f += fk;
-        t += (centre - tool_pos).cross(&fk);
-    }
-    [f.x, f.y, f.z, t.x, t.y, t.z]
 }
 
 fn load_scene(args: &super::BenchArgs) -> anyhow::Result<Scene> {
@@ -558,8 +480,8 @@ fn jaws_poses(com: &Vec3) -> Vec<Pose> {
         .collect()
 }
 
-/// A tool approaching an obstacle along `−up` with a fixed orientation: bisection for the first
-/// offset with a contact within `δ` (LOD at threshold 0), then 200 poses around it: ±`δ` along
+/// A tool approaching an obstacle along `−up` with a fixed orientation: the first offset with a
+/// contact within `δ` (LOD at threshold 0; a march, then bisection), then 200 poses around it: ±`δ` along
 /// `up`, ±2δ sideways, ±0.3° of tilt.
 fn approach_poses(
     tool: &TriMesh,
@@ -582,10 +504,25 @@ fn approach_poses(
         lod.query(&pose, &params, &mut out)?;
         Ok(!out.is_empty())
     };
-    let (mut a, mut b) = (0.0, reach + 0.5 * (hi - lo).dot(&up).abs());
-    if touches(a)? || !touches(b)? {
-        bail!("cannot find a first contact along the approach direction");
+    // March in 400 steps to the first pose with a contact (a hollow obstacle may let the tool
+    // pass through an opening further on), then bisect.
+    let end = reach + 0.5 * (hi - lo).dot(&up).abs();
+    if touches(0.0)? {
+        bail!("the tool touches the obstacle from the start of the approach");
     }
+    let steps = 400;
+    let mut first = None;
+    for k in 1..=steps {
+        let t = end * k as Real / steps as Real;
+        if touches(t)? {
+            first = Some(t);
+            break;
+        }
+    }
+    let Some(hit) = first else {
+        bail!("the tool never comes within δ of the obstacle along the approach direction");
+    };
+    let (mut a, mut b) = (hit - end / steps as Real, hit);
     for _ in 0..60 {
         let m = 0.5 * (a + b);
         if touches(m)? {
