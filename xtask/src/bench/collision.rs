@@ -94,6 +94,7 @@ pub fn run(args: &super::BenchArgs) -> anyhow::Result<()> {
             // The reference itself (its errors are zero by definition).
             let mut r = reference.clone();
             r.errors = vec![0.0; r.wrenches.len()];
+            r.force_ratios = vec![1.0; r.wrenches.len()];
             rows.push(row("lod", th, &r, lod_build_s));
         } else {
             let r = run_backend(&mut lod, &scene, th, passes, radius, Some(&reference))?;
@@ -102,7 +103,7 @@ pub fn run(args: &super::BenchArgs) -> anyhow::Result<()> {
     }
     for r in &rows {
         println!(
-            "{:>6} {:>6.1} %: median {:>9.1} µs, p99 {:>9.1} µs, contacts {:>8.1}, node pairs {:>9.0}, wrench error median {:.3} (p90 {:.3})",
+            "{:>6} {:>6.1} %: median {:>9.1} µs, p99 {:>9.1} µs, contacts {:>8.1}, node pairs {:>9.0}, wrench error median {:.3} (p90 {:.3}), |F|/|F0| {:.3}",
             r["backend"].as_str().unwrap_or(""),
             r["threshold"].as_f64().unwrap_or(0.0) * 100.0,
             r["median_s"].as_f64().unwrap_or(0.0) * 1e6,
@@ -111,6 +112,7 @@ pub fn run(args: &super::BenchArgs) -> anyhow::Result<()> {
             r["node_pairs_mean"].as_f64().unwrap_or(0.0),
             r["wrench_error_rel_median"].as_f64().unwrap_or(0.0),
             r["wrench_error_rel_p90"].as_f64().unwrap_or(0.0),
+            r["force_ratio_median"].as_f64().unwrap_or(0.0),
         );
     }
     let median_of = |b: &str, th: Real| {
@@ -219,6 +221,8 @@ struct RunResult {
     node_pairs_mean: Real,
     wrenches: Vec<[Real; 6]>,
     errors: Vec<Real>,
+    /// `|F| / |F₀|` per pose.
+    force_ratios: Vec<Real>,
 }
 
 fn row(backend: &str, threshold: Real, r: &RunResult, build_s: Real) -> serde_json::Value {
@@ -226,6 +230,8 @@ fn row(backend: &str, threshold: Real, r: &RunResult, build_s: Real) -> serde_js
     t.sort_by(|a, b| a.total_cmp(b));
     let mut e = r.errors.clone();
     e.sort_by(|a, b| a.total_cmp(b));
+    let mut fr = r.force_ratios.clone();
+    fr.sort_by(|a, b| a.total_cmp(b));
     let q = |v: &[Real], f: Real| {
         if v.is_empty() {
             Real::NAN
@@ -243,6 +249,7 @@ fn row(backend: &str, threshold: Real, r: &RunResult, build_s: Real) -> serde_js
         "wrench_error_rel_median": q(&e, 0.5),
         "wrench_error_rel_p90": q(&e, 0.9),
         "wrench_error_rel_max": e.last().copied().unwrap_or(Real::NAN),
+        "force_ratio_median": q(&fr, 0.5),
         "build_s": build_s,
     })
 }
@@ -286,7 +293,18 @@ where
             .collect(),
         None => Vec::new(),
     };
+    let force = |w: &[Real; 6]| Vec3::new(w[0], w[1], w[2]).norm();
+    let force_ratios = match reference {
+        Some(r) => wrenches
+            .iter()
+            .zip(&r.wrenches)
+            .filter(|(_, w0)| force(w0) > 0.0)
+            .map(|(w, w0)| force(w) / force(w0))
+            .collect(),
+        None => Vec::new(),
+    };
     Ok(RunResult {
+        force_ratios,
         times_s,
         contacts_mean: contacts as Real / n,
         node_pairs_mean: node_pairs as Real / n,
