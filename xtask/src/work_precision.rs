@@ -73,7 +73,7 @@ const STEPS_MS_FULL: [Real; 10] = [0.05, 0.1, 0.125, 0.2, 0.25, 0.4, 0.5, 1.0, 1
 const STEPS_MS_QUICK: [Real; 6] = [0.05, 0.1, 0.2, 0.5, 1.0, 2.0];
 
 /// The device reading of the hand motion at `t_s`.
-fn hand_device(t_s: Real) -> DeviceState {
+pub(crate) fn hand_device(t_s: Real) -> DeviceState {
     let (p, q, v, w) = free_space::hand_at(t_s);
     DeviceState {
         pose: Pose {
@@ -127,15 +127,16 @@ impl ForceModel for HandDriven {
 }
 
 /// The body, the start state, the coupling and (with contact) the fixed linearized contact.
-struct Setup {
-    body: RigidBody,
-    start: ToolState,
-    coupling: VirtualCoupling,
-    table: LinearizedContact,
-    table_points_body_m: Vec<Vec3>,
+pub(crate) struct Setup {
+    pub(crate) body: RigidBody,
+    pub(crate) start: ToolState,
+    pub(crate) coupling: VirtualCoupling,
+    pub(crate) table: LinearizedContact,
+    pub(crate) table_points_body_m: Vec<Vec3>,
 }
 
-fn setup() -> anyhow::Result<Setup> {
+/// The spoon, its start state, its coupling and the fixed table contact (see the module docs).
+pub(crate) fn setup() -> anyhow::Result<Setup> {
     let mesh = common::meshes_dir().join("newell_teaspoon.stl");
     let shape = free_space::spoon_shape(&mesh)?;
     let body = RigidBody::new(MASS_KG, shape.inertia_per_kg * MASS_KG)?;

@@ -1,6 +1,376 @@
-//! Benchmark `perf`: being written.
+//! `cargo xtask bench [--out DIR] [--quick]`: the performance report, `DIR/perf.json`.
+//!
+//! Everything is timed one call at a time with [`Instant`] (its own cost, about 20–40 ns on this
+//! kind of machine, is included) and summarized by quantiles:
+//!
+//! - `haptic_step.<integrator>.{free,contacts5}`: one haptic step = `set_device` + integrator step
+//!   with [`HapticForces`] + `device_reaction` at the new state. The spoon of the work-precision
+//!   study (100 g) on the default coupling, the hand motion of the free-space study at 1 kHz; with
+//!   `contacts5`, the linearized penalty wrench of five representatives (the work-precision
+//!   table contact). Each step starts from the state of a backward-Euler run along the same hand
+//!   motion (so that every integrator is timed at the same, bounded states even where it would
+//!   itself go unstable).
+//! - `cluster_50_to_5_median_s`: `Clusterer` (defaults: K = 5, warm start) on 50 contacts of a
+//!   drifting patch, as in `haptic-cluster/benches/cluster.rs`.
+//! - `collision_jaws`: `ParryBackend`, `LodBackend` exact and at 2.5 % of the tool's bounding
+//!   radius, on the same 200 jaws poses (the collision benchmark's path: the upper jaw in
+//!   occlusion, moved by up to 0.5 mm and 0.3°), δ = 1 mm, interleaved pose by pose in one run.
+//! - `build_jaws_s`, `build_jaws_bytes`: `LodBackend::new` on the jaws, and its heap memory.
+//! - `free_space_contact_step_median_s`: the contact stage in free space: `LodBackend::query`
+//!   with the upper jaw 1 m above the lower one (the broad phase rejects it), then the empty-set
+//!   handling of `haptic_runtime`'s contact stage (clear the representatives, no model).
 
-/// Runs the benchmark.
-pub fn run(_args: &super::BenchArgs) -> anyhow::Result<()> {
-    anyhow::bail!("benchmark perf has not landed yet")
+use std::hint::black_box;
+use std::path::Path;
+use std::time::Instant;
+
+use anyhow::Context;
+use haptic_cluster::{ClusterParams, Clusterer};
+use haptic_collision::{LoadOptions, LodBackend, ParryBackend, TriMesh};
+use haptic_core::{
+    CollisionBackend, Contact, ContactSet, DeviceState, Integrator, LinearizedContact, Pose,
+    QueryParams, Real, ToolState, Vec3,
+};
+use haptic_dynamics::{HapticForces, IntegratorKind};
+use nalgebra::UnitQuaternion;
+use serde_json::{Value, json};
+
+use crate::common;
+use crate::work_precision::{Setup, hand_device, setup};
+
+/// Haptic rate, Hz.
+const RATE_HZ: Real = 1000.0;
+/// Jaws poses.
+const POSES: usize = 200;
+/// Distance tolerance of the jaws queries, m.
+const DELTA_M: Real = 1e-3;
+
+/// Median, p99 and p99.9 of `v` (sorted in place).
+fn quantiles(v: &mut [Real]) -> (Real, Real, Real) {
+    v.sort_by(Real::total_cmp);
+    let q = |f: Real| v[((v.len() - 1) as Real * f).round() as usize];
+    (q(0.5), q(0.99), q(0.999))
+}
+
+fn median(v: &mut [Real]) -> Real {
+    quantiles(v).0
+}
+
+/// The device readings and the backward-Euler states along the hand motion, one per haptic step.
+fn reference_states(
+    s: &Setup,
+    contact: bool,
+    steps: usize,
+) -> anyhow::Result<Vec<(DeviceState, ToolState)>> {
+    let h = 1.0 / RATE_HZ;
+    let mut forces = HapticForces::new(s.coupling);
+    if contact {
+        forces.contact = s.table;
+    }
+    let mut integ = IntegratorKind::BackwardEuler.boxed();
+    let mut tool = s.start;
+    let mut out = Vec::with_capacity(steps);
+    for n in 0..steps {
+        let t = n as Real * h;
+        let device = hand_device(t);
+        out.push((device, tool));
+        forces.coupling.set_device(&device)?;
+        tool = integ.step(&s.body, &tool, t, h, &mut forces)?;
+    }
+    Ok(out)
+}
+
+/// Times `samples` haptic steps of `kind`, cycling over `states`; returns median, p99, p99.9.
+fn time_haptic_step(
+    kind: IntegratorKind,
+    s: &Setup,
+    contact: bool,
+    states: &[(DeviceState, ToolState)],
+    samples: usize,
+) -> anyhow::Result<(Real, Real, Real)> {
+    let h = 1.0 / RATE_HZ;
+    let mut forces = HapticForces::new(s.coupling);
+    if contact {
+        forces.contact = s.table;
+    }
+    let mut integ: Box<dyn Integrator + Send> = kind.boxed();
+    let mut times = Vec::with_capacity(samples);
+    // One unmeasured pass to warm caches and branch predictors.
+    for (i, (device, tool)) in states.iter().enumerate() {
+        forces.coupling.set_device(device)?;
+        let next = integ.step(&s.body, tool, i as Real * h, h, &mut forces)?;
+        black_box(forces.coupling.device_reaction(&s.body, &next));
+    }
+    for k in 0..samples {
+        let i = k % states.len();
+        let (device, tool) = &states[i];
+        let t = i as Real * h;
+        let clock = Instant::now();
+        forces.coupling.set_device(black_box(device))?;
+        let next = integ.step(&s.body, black_box(tool), t, h, &mut forces)?;
+        let reaction = forces.coupling.device_reaction(&s.body, &next);
+        times.push(clock.elapsed().as_secs_f64());
+        black_box(reaction);
+    }
+    Ok(quantiles(&mut times))
+}
+
+/// 50 contacts of a 2 cm × 1 cm curved patch drifting by 10 µm per frame (the cluster bench's).
+fn cluster_frame(t: usize, n: usize) -> anyhow::Result<Vec<Contact>> {
+    (0..n)
+        .map(|i| {
+            let u = (i as Real * 0.618_034).fract();
+            let v = (i as Real * 0.414_214).fract();
+            let x = 0.02 * u + 1e-5 * t as Real;
+            let y = 0.01 * v;
+            let p = Vec3::new(x, y, 0.002 * (30.0 * x).sin());
+            let n = Vec3::new(-0.06 * (30.0 * x).cos(), 0.0, 1.0).normalize();
+            let d = 3e-4 * (1.0 + (200.0 * x + 100.0 * y).sin());
+            Ok(Contact::new(p, p, p - d * n, n, d)?)
+        })
+        .collect()
+}
+
+/// Loads a tool with its body frame at its centre of mass; returns it and that point (m).
+fn load_tool(path: &Path, scale: Real) -> anyhow::Result<(TriMesh, Vec3)> {
+    let (mesh, _) = TriMesh::load(path, &LoadOptions::with_scale(scale))
+        .with_context(|| format!("loading {}", path.display()))?;
+    let origin = match mesh.mass_properties(1000.0) {
+        Ok(mp) => mp.centre_of_mass_m,
+        Err(_) => {
+            let (lo, hi) = mesh.bounding_box();
+            (lo + hi) * 0.5
+        }
+    };
+    Ok((mesh.translated(&-origin)?, origin))
+}
+
+/// The collision benchmark's jaws path (see `bench/collision.rs`).
+fn jaws_poses(com: &Vec3) -> Vec<Pose> {
+    (0..POSES)
+        .map(|i| {
+            let s = i as Real / POSES as Real * std::f64::consts::TAU;
+            let dp = Vec3::new(
+                0.5e-3 * s.sin(),
+                0.5e-3 * (2.0 * s).cos(),
+                0.3e-3 * (3.0 * s).sin() + 0.2e-3,
+            );
+            let rot = UnitQuaternion::from_scaled_axis(Vec3::new(
+                0.005 * s.cos(),
+                0.005 * s.sin(),
+                0.003 * (2.0 * s).sin(),
+            ));
+            Pose {
+                position: com + dp,
+                orientation: rot,
+            }
+        })
+        .collect()
+}
+
+/// Times one query.
+fn time_query<B: CollisionBackend>(
+    backend: &mut B,
+    pose: &Pose,
+    params: &QueryParams,
+    out: &mut ContactSet,
+) -> anyhow::Result<Real>
+where
+    B::Error: std::error::Error + Send + Sync + 'static,
+{
+    let clock = Instant::now();
+    backend.query(pose, params, out)?;
+    Ok(clock.elapsed().as_secs_f64())
+}
+
+/// The CPU model, from `/proc/cpuinfo`.
+fn cpu_model() -> String {
+    std::fs::read_to_string("/proc/cpuinfo")
+        .ok()
+        .and_then(|s| {
+            s.lines()
+                .find(|l| l.starts_with("model name"))
+                .and_then(|l| l.split(':').nth(1))
+                .map(|m| m.trim().to_owned())
+        })
+        .unwrap_or_else(|| "unknown".to_owned())
+}
+
+/// Runs the performance report.
+pub fn run(args: &super::BenchArgs) -> anyhow::Result<()> {
+    let quick = args.out.quick;
+    let dir = args.out.dir("bench")?;
+    let step_samples = if quick { 50_000 } else { 500_000 };
+    let cluster_samples = if quick { 5_000 } else { 50_000 };
+    let free_samples = if quick { 20_000 } else { 200_000 };
+    let passes = if quick { 1 } else { 3 };
+
+    // Haptic step.
+    let s = setup()?;
+    let trajectory_steps = (2.5 * RATE_HZ) as usize;
+    let mut haptic = serde_json::Map::new();
+    let mut states = Vec::new();
+    for contact in [false, true] {
+        states.push(reference_states(&s, contact, trajectory_steps)?);
+    }
+    for kind in IntegratorKind::ALL {
+        let mut entry = serde_json::Map::new();
+        for (contact, st) in [false, true].into_iter().zip(&states) {
+            let (med, p99, p999) = time_haptic_step(kind, &s, contact, st, step_samples)?;
+            let key = if contact { "contacts5" } else { "free" };
+            println!(
+                "haptic step {:<22} {:<9} median {:6.3} µs  p99 {:6.3} µs  p99.9 {:6.3} µs",
+                kind.name(),
+                key,
+                med * 1e6,
+                p99 * 1e6,
+                p999 * 1e6
+            );
+            entry.insert(
+                key.to_owned(),
+                json!({ "median_s": med, "p99_s": p99, "p999_s": p999 }),
+            );
+        }
+        haptic.insert(kind.name().to_owned(), Value::Object(entry));
+    }
+
+    // Clustering 50 → 5, warm.
+    let frames: Vec<Vec<Contact>> = (0..64)
+        .map(|t| cluster_frame(t, 50))
+        .collect::<anyhow::Result<_>>()?;
+    let mut clusterer = Clusterer::new(ClusterParams::default())?;
+    let mut reps = ContactSet::with_capacity(8);
+    for f in &frames {
+        clusterer.cluster(f, DELTA_M, &mut reps)?;
+    }
+    let mut cluster_times = Vec::with_capacity(cluster_samples);
+    for k in 0..cluster_samples {
+        let f = &frames[k % frames.len()];
+        let clock = Instant::now();
+        clusterer.cluster(black_box(f), DELTA_M, &mut reps)?;
+        cluster_times.push(clock.elapsed().as_secs_f64());
+    }
+    let cluster_median = median(&mut cluster_times);
+    println!(
+        "cluster 50 → 5 (warm): median {:.3} µs",
+        cluster_median * 1e6
+    );
+
+    // Jaws: build, queries.
+    let meshes = common::meshes_dir();
+    let (tool, com) = load_tool(&meshes.join("jaw_upper_openfulljaw_p26.stl"), 1e-3)?;
+    let (lower, _) = TriMesh::load(
+        meshes.join("jaw_lower_openfulljaw_p26.stl"),
+        &LoadOptions::with_scale(1e-3),
+    )?;
+    let obstacles = [(lower, Pose::identity())];
+    let clock = Instant::now();
+    let mut lod = LodBackend::new(&tool, &obstacles)?;
+    let build_s = clock.elapsed().as_secs_f64();
+    let build_bytes = lod.memory_bytes();
+    let clock = Instant::now();
+    let mut parry = ParryBackend::new(&tool, &obstacles)?;
+    let parry_build_s = clock.elapsed().as_secs_f64();
+    println!(
+        "jaws: LOD build {build_s:.3} s, {:.1} MB; parry build {parry_build_s:.3} s",
+        build_bytes as Real / 1e6
+    );
+    let poses = jaws_poses(&com);
+    let exact = QueryParams::new(DELTA_M, 0.0)?;
+    let lod25 = QueryParams::new(DELTA_M, 0.025)?;
+    let mut out = ContactSet::new();
+    let (mut t_parry, mut t_exact, mut t_25) = (Vec::new(), Vec::new(), Vec::new());
+    let (mut n_parry, mut n_exact, mut n_25) = (0usize, 0usize, 0usize);
+    for pass in 0..passes {
+        for pose in &poses {
+            t_parry.push(time_query(&mut parry, pose, &exact, &mut out)?);
+            if pass == 0 {
+                n_parry += out.len();
+            }
+            t_exact.push(time_query(&mut lod, pose, &exact, &mut out)?);
+            if pass == 0 {
+                n_exact += out.len();
+            }
+            t_25.push(time_query(&mut lod, pose, &lod25, &mut out)?);
+            if pass == 0 {
+                n_25 += out.len();
+            }
+        }
+    }
+    let (parry_med, parry_p99, _) = quantiles(&mut t_parry);
+    let (exact_med, exact_p99, _) = quantiles(&mut t_exact);
+    let (lod25_med, lod25_p99, _) = quantiles(&mut t_25);
+    let speedup = parry_med / lod25_med;
+    let np = poses.len() as Real;
+    println!(
+        "jaws queries (median): parry {:.3} ms, LOD exact {:.3} ms, LOD 2.5 % {:.3} ms → {speedup:.1}× parry; mean contacts {:.1} / {:.1} / {:.1}",
+        parry_med * 1e3,
+        exact_med * 1e3,
+        lod25_med * 1e3,
+        n_parry as Real / np,
+        n_exact as Real / np,
+        n_25 as Real / np
+    );
+
+    // Free-space contact step: broad-phase rejection and the empty-set handling.
+    let far = Pose {
+        position: com + Vec3::new(0.0, 0.0, 1.0),
+        orientation: UnitQuaternion::identity(),
+    };
+    let mut representatives = ContactSet::with_capacity(8);
+    let mut model = LinearizedContact::none();
+    let mut free_times = Vec::with_capacity(free_samples);
+    for k in 0..free_samples + 1000 {
+        let clock = Instant::now();
+        lod.query(black_box(&far), &exact, &mut out)?;
+        if out.is_empty() {
+            representatives.clear();
+            model = LinearizedContact::none();
+        }
+        let dt = clock.elapsed().as_secs_f64();
+        if k >= 1000 {
+            free_times.push(dt);
+        }
+    }
+    black_box((&representatives, &model));
+    if !out.is_empty() {
+        anyhow::bail!("the tool 1 m away still has {} contacts", out.len());
+    }
+    let free_med = median(&mut free_times);
+    println!("free-space contact step: median {:.1} ns", free_med * 1e9);
+
+    let value = json!({
+        "haptic_step": haptic,
+        "cluster_50_to_5_median_s": cluster_median,
+        "collision_jaws": {
+            "parry_median_s": parry_med,
+            "lod_exact_median_s": exact_med,
+            "lod_2_5_median_s": lod25_med,
+            "speedup_lod_2_5_vs_parry": speedup,
+            "parry_p99_s": parry_p99,
+            "lod_exact_p99_s": exact_p99,
+            "lod_2_5_p99_s": lod25_p99,
+            "speedup_lod_exact_vs_parry": parry_med / exact_med,
+            "contacts_mean": { "parry": n_parry as Real / np, "lod_exact": n_exact as Real / np, "lod_2_5": n_25 as Real / np },
+            "poses": poses.len(),
+            "passes": passes,
+            "delta_m": DELTA_M,
+        },
+        "build_jaws_s": build_s,
+        "build_jaws_bytes": build_bytes,
+        "build_jaws_parry_s": parry_build_s,
+        "free_space_contact_step_median_s": free_med,
+        "setup": {
+            "cpu": cpu_model(),
+            "cpus": std::thread::available_parallelism().map(|n| n.get()).unwrap_or(1),
+            "quick": quick,
+            "haptic_step_samples": step_samples,
+            "haptic_step": "set_device + integrator step (HapticForces) + device_reaction, 1 kHz, 100 g spoon, default coupling; states from a backward-Euler run along the free-space hand motion; contacts5: linearized penalty wrench of 5 representatives",
+            "cluster_samples": cluster_samples,
+            "free_space_samples": free_samples,
+            "timer": "std::time::Instant around each call (its overhead included)",
+        },
+    });
+    common::write_json(&dir.join("perf.json"), &value)?;
+    Ok(())
 }
