@@ -274,8 +274,14 @@ impl ToolState {
                 what: "state vector",
             });
         }
-        let q = Quaternion::new(y[IQ], y[IQ + 1], y[IQ + 2], y[IQ + 3]);
-        let norm = q.norm();
+        let mut q = Quaternion::new(y[IQ], y[IQ + 1], y[IQ + 2], y[IQ + 3]);
+        let mut norm = q.norm();
+        if !norm.is_finite() {
+            // Components so large that the norm overflows (a diverging explicit step): scale by
+            // the largest first, which is exact in direction.
+            q /= q.coords.amax();
+            norm = q.norm();
+        }
         if norm < 1e-6 {
             return Err(CoreError::NonUnitQuaternion { norm });
         }
@@ -402,6 +408,16 @@ impl DeviceState {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn huge_quaternions_normalise_without_overflow() {
+        let mut y = ToolState::at_rest(&Pose::identity()).to_vector();
+        y[crate::math::IQ] = 1e300;
+        y[crate::math::IQ + 1] = 1e300;
+        let s = ToolState::from_vector_normalized(&y).unwrap();
+        assert!((s.q.coords.norm() - 1.0).abs() < 1e-15);
+        assert!((s.q.w - std::f64::consts::FRAC_1_SQRT_2).abs() < 1e-15);
+    }
 
     #[test]
     fn pose_rejects_bad_input() {

@@ -1,4 +1,32 @@
-//! `cargo xtask stress`: lands with the stress issue.
+//! `cargo xtask stress`: randomized long runs in virtual time over the spoon-in-cup scene, that
+//! count what must never happen (a NaN or over-limit force sent to the device) and map which
+//! (integrator, mass, stiffness, contact rate) configurations are stable.
+//!
+//! Every run drives the full pipeline (LOD collision at 2.5 %, clustering, linearized penalty
+//! model, virtual coupling, integrator) through a [`Probe`] device that checks every wrench the
+//! pipeline sends, independently of the pipeline's own saturation, and runs a passivity observer
+//! (Hannaford & Ryu 2002): the energy that has flowed from the device port into the simulation,
+//! `E(t) = −Σ (F·v + T·ω) Δt`. A passive simulation keeps `E ≥ 0`; its minimum is reported.
+
+use std::sync::atomic::{AtomicU64, Ordering};
+
+use haptic_collision::LodBackend;
+use haptic_core::{
+    Device, DeviceLimits, DeviceState, Pose, QueryParams, Real, RigidBody, Vec3, Wrench,
+};
+use haptic_device::{Fault, FaultInjector, ScriptedDevice, Waypoint};
+use haptic_dynamics::{
+    BackwardEuler, CouplingParams, ForwardEuler, NewtonBackwardEuler, PenaltyModel, PenaltyParams,
+    Rk4,
+};
+use haptic_runtime::{ContactLatency, PipelineBuilder, Scene, SceneParts};
+use nalgebra::UnitQuaternion;
+use rand::{Rng, SeedableRng};
+use rayon::prelude::*;
+use serde::Serialize;
+use serde_json::json;
+
+use crate::common::{repo_root, write_json};
 
 /// Arguments of the stress runs.
 #[derive(clap::Args, Debug)]
@@ -6,12 +34,411 @@ pub struct StressArgs {
     /// Output options.
     #[command(flatten)]
     pub out: crate::OutArgs,
-    /// Total haptic steps over all runs.
+    /// Total haptic steps over all runs (default 1,000,000; 100,000 with `--quick`).
     #[arg(long)]
     pub steps: Option<u64>,
 }
 
+/// Simulated seconds per run.
+const RUN_S: Real = 2.0;
+
+/// The integrators, in the order the runs cycle through them.
+const INTEGRATORS: [&str; 4] = [
+    "backward_euler",
+    "newton_backward_euler",
+    "rk4",
+    "forward_euler",
+];
+
+/// What the hand does.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
+enum Motion {
+    /// Into the cup and against the wall, smoothly.
+    Smooth,
+    /// Jumps of 10 cm every 0.3 s.
+    Teleports,
+    /// Spinning at 50 rad/s about the vertical.
+    Spin,
+    /// The smooth motion with a burst of 50 NaN readings.
+    NanBurst,
+}
+
+/// One randomized configuration.
+#[derive(Debug, Clone, Serialize)]
+struct Config {
+    seed: u64,
+    integrator: &'static str,
+    mass_kg: Real,
+    coupling_n_per_m: Real,
+    contact_n_per_m: Real,
+    contact_rate_hz: Real,
+    motion: Motion,
+}
+
+/// What one run counted.
+#[derive(Debug, Clone, Serialize)]
+struct Outcome {
+    config: Config,
+    steps: u64,
+    nan_forces_sent: u64,
+    over_limit_forces_sent: u64,
+    max_quat_norm_error: Real,
+    divergent: bool,
+    stable: bool,
+    passivity_min_energy_j: Real,
+    max_force_n: Real,
+    max_penetration_m: Real,
+}
+
+/// A device wrapper that checks every wrench sent (finite, within the limits) and observes the
+/// energy through the port.
+struct Probe<D> {
+    inner: D,
+    limits: DeviceLimits,
+    last: Option<(Real, DeviceState)>,
+    now_s: Real,
+    energy_j: Real,
+    min_energy_j: Real,
+    nan_sent: u64,
+    over_limit_sent: u64,
+}
+
+impl<D: Device> Probe<D> {
+    fn new(inner: D) -> Self {
+        let limits = inner.limits();
+        Self {
+            inner,
+            limits,
+            last: None,
+            now_s: 0.0,
+            energy_j: 0.0,
+            min_energy_j: 0.0,
+            nan_sent: 0,
+            over_limit_sent: 0,
+        }
+    }
+}
+
+impl<D: Device> Device for Probe<D> {
+    type Error = D::Error;
+
+    fn name(&self) -> &str {
+        "probe"
+    }
+
+    fn limits(&self) -> DeviceLimits {
+        self.limits
+    }
+
+    fn read(&mut self, now_s: Real) -> Result<DeviceState, D::Error> {
+        let s = self.inner.read(now_s)?;
+        self.now_s = now_s;
+        self.last = Some((now_s, s));
+        Ok(s)
+    }
+
+    fn command(&mut self, w: &Wrench) -> Result<(), D::Error> {
+        if !w.force.iter().chain(w.torque.iter()).all(|v| v.is_finite()) {
+            self.nan_sent += 1;
+        } else if w.force.norm() > self.limits.max_force_n * (1.0 + 1e-9)
+            || w.torque.norm() > self.limits.max_torque_nm * (1.0 + 1e-9)
+        {
+            self.over_limit_sent += 1;
+        }
+        if let Some((_, s)) = &self.last {
+            // Held until the next reading: one haptic period (1 ms).
+            let p = w.force.dot(&s.twist.linear) + w.torque.dot(&s.twist.angular);
+            if p.is_finite() {
+                self.energy_j -= p * 1e-3;
+                self.min_energy_j = self.min_energy_j.min(self.energy_j);
+            }
+        }
+        self.inner.command(w)
+    }
+
+    fn command_zero(&mut self) -> Result<(), D::Error> {
+        self.inner.command_zero()
+    }
+}
+
+/// The hand's target for a motion, about the start pose.
+fn device_for(
+    motion: Motion,
+    start: Pose,
+    limits: DeviceLimits,
+) -> anyhow::Result<FaultInjector<ScriptedDevice>> {
+    let smooth = |limits| -> anyhow::Result<ScriptedDevice> {
+        let at = |dx: Real, dy: Real| Pose {
+            position: start.position + Vec3::new(dx, dy, 0.0),
+            orientation: start.orientation,
+        };
+        Ok(ScriptedDevice::from_waypoints(
+            vec![
+                Waypoint::new(0.0, at(0.0, 0.0)),
+                Waypoint::new(0.6, at(0.0, -0.07)),
+                Waypoint::new(1.2, at(0.04, -0.07)),
+                Waypoint::new(1.6, at(-0.04, -0.07)),
+                Waypoint::new(RUN_S, at(0.04, -0.07)),
+            ],
+            limits,
+        )?)
+    };
+    let (device, fault) = match motion {
+        Motion::Smooth => (smooth(limits)?, Fault::None),
+        Motion::NanBurst => (
+            smooth(limits)?,
+            Fault::NanBurst {
+                after_reads: 900,
+                reads: 50,
+            },
+        ),
+        Motion::Teleports => (
+            ScriptedDevice::from_fn(
+                move |t| {
+                    let k = (t / 0.3).floor() as i64;
+                    let dx = if k % 2 == 0 { 0.0 } else { 0.1 };
+                    let dy = if k % 4 < 2 { -0.07 } else { 0.0 };
+                    Pose {
+                        position: start.position + Vec3::new(dx, dy, 0.0),
+                        orientation: start.orientation,
+                    }
+                },
+                limits,
+            ),
+            Fault::None,
+        ),
+        Motion::Spin => (
+            ScriptedDevice::from_fn(
+                move |t| Pose {
+                    position: start.position + Vec3::new(0.0, -0.07 * (t / RUN_S).min(1.0), 0.0),
+                    orientation: UnitQuaternion::from_scaled_axis(Vec3::new(0.0, 50.0 * t, 0.0))
+                        * start.orientation,
+                },
+                limits,
+            ),
+            Fault::None,
+        ),
+    };
+    Ok(FaultInjector::new(device, fault))
+}
+
+fn log_uniform(rng: &mut impl Rng, lo: Real, hi: Real) -> Real {
+    (rng.random_range(lo.ln()..hi.ln())).exp()
+}
+
+fn config(seed: u64) -> Config {
+    let mut rng = rand::rngs::StdRng::seed_from_u64(seed);
+    let motion = match rng.random_range(0..10) {
+        0..=5 => Motion::Smooth,
+        6 => Motion::Teleports,
+        7 => Motion::Spin,
+        _ => Motion::NanBurst,
+    };
+    Config {
+        seed,
+        integrator: INTEGRATORS[(seed % 4) as usize],
+        mass_kg: log_uniform(&mut rng, 5e-4, 1.0),
+        coupling_n_per_m: log_uniform(&mut rng, 50.0, 5000.0),
+        contact_n_per_m: log_uniform(&mut rng, 500.0, 50_000.0),
+        contact_rate_hz: log_uniform(&mut rng, 10.0, 1000.0),
+        motion,
+    }
+}
+
+/// Runs one configuration.
+fn run_one(base: &SceneParts, backend: &LodBackend, c: &Config) -> anyhow::Result<Outcome> {
+    let mut parts = base.clone();
+    parts.body = RigidBody::new(
+        c.mass_kg,
+        *base.body.inertia_body() * (c.mass_kg / base.body.mass_kg()),
+    )?;
+    // The coupling's damping scales with its stiffness (the free-space study's ratios).
+    let d = CouplingParams::default();
+    let ratio = c.coupling_n_per_m / d.stiffness_n_per_m;
+    parts.coupling = CouplingParams {
+        stiffness_n_per_m: c.coupling_n_per_m,
+        damping_ns_per_m: d.damping_ns_per_m * ratio,
+        angular_stiffness_nm_per_rad: d.angular_stiffness_nm_per_rad * ratio,
+        angular_damping_nms_per_rad: d.angular_damping_nms_per_rad * ratio,
+        saturation: None,
+    };
+    parts.penalty = PenaltyParams::new(
+        c.contact_n_per_m,
+        base.penalty.damping_ns_per_m * c.contact_n_per_m / base.penalty.stiffness_n_per_m,
+        base.penalty.delta_m,
+    )?;
+    parts.config.query = QueryParams::new(base.penalty.delta_m, 0.025)?;
+    let device = Probe::new(device_for(c.motion, parts.tool_pose, parts.limits)?);
+    let latency = ContactLatency::FixedRate {
+        rate_hz: c.contact_rate_hz,
+    };
+    macro_rules! go {
+        ($integrator:expr) => {{
+            let mut p = PipelineBuilder::new(parts.body, parts.tool_pose)
+                .integrator($integrator)
+                .backend(backend.clone())
+                .contact_model(PenaltyModel::new(parts.penalty)?)
+                .device(device)
+                .coupling(parts.coupling)
+                .config(parts.config)
+                .build()?;
+            let summary = p.run_virtual(RUN_S, latency, |_, _| {})?;
+            let stats = p.haptic().stats.clone();
+            let probe = p.haptic().device();
+            (
+                summary,
+                stats,
+                probe.nan_sent,
+                probe.over_limit_sent,
+                probe.min_energy_j,
+            )
+        }};
+    }
+    let (summary, stats, nan_sent, over_sent, min_energy) = match c.integrator {
+        "backward_euler" => go!(BackwardEuler),
+        "newton_backward_euler" => go!(NewtonBackwardEuler::default()),
+        "rk4" => go!(Rk4),
+        _ => go!(ForwardEuler),
+    };
+    let divergent = stats.divergences > 0 || stats.solver_failures > 0;
+    // Stable: no divergence, and (for the motions that stay in the workspace smoothly) the
+    // coupling stretches less than 5 cm and the force never reaches the device's limit.
+    let violent = matches!(c.motion, Motion::Teleports | Motion::Spin);
+    let stable = !divergent
+        && (violent || (stats.max_coupling_deviation_m < 0.05 && summary.saturation_events == 0));
+    Ok(Outcome {
+        config: c.clone(),
+        steps: stats.steps,
+        nan_forces_sent: nan_sent,
+        over_limit_forces_sent: over_sent,
+        max_quat_norm_error: stats.max_quat_norm_error,
+        divergent,
+        stable,
+        passivity_min_energy_j: min_energy,
+        max_force_n: summary.max_force_n,
+        max_penetration_m: summary.max_penetration_m,
+    })
+}
+
 /// Runs the stress tests.
-pub fn run(_args: &StressArgs) -> anyhow::Result<()> {
-    anyhow::bail!("`cargo xtask stress` lands with the stress issue")
+pub fn run(args: &StressArgs) -> anyhow::Result<()> {
+    let dir = args.out.dir("stress")?;
+    let total = args
+        .steps
+        .unwrap_or(if args.out.quick { 100_000 } else { 1_000_000 });
+    let steps_per_run = (RUN_S * 1000.0) as u64;
+    let runs = total.div_ceil(steps_per_run).max(4);
+    let scene = Scene::load(&repo_root().join("xtask/scenes/spoon-cup.toml"))?;
+    let base = scene.assemble()?;
+    let backend = LodBackend::new(&base.tool_mesh, &base.obstacles)?;
+    println!(
+        "stress: {runs} runs of {RUN_S} s ({} steps) over the spoon in the cup",
+        runs * steps_per_run
+    );
+    let done = AtomicU64::new(0);
+    let bar = indicatif::ProgressBar::new(runs);
+    let outcomes: Vec<anyhow::Result<Outcome>> = (0..runs)
+        .into_par_iter()
+        .map(|seed| {
+            let r = run_one(&base, &backend, &config(seed));
+            done.fetch_add(1, Ordering::Relaxed);
+            bar.inc(1);
+            r
+        })
+        .collect();
+    bar.finish_and_clear();
+    let outcomes: Vec<Outcome> = outcomes.into_iter().collect::<Result<_, _>>()?;
+
+    let steps_total: u64 = outcomes.iter().map(|o| o.steps).sum();
+    let nan_sent: u64 = outcomes.iter().map(|o| o.nan_forces_sent).sum();
+    let over_sent: u64 = outcomes.iter().map(|o| o.over_limit_forces_sent).sum();
+    let quat = outcomes
+        .iter()
+        .map(|o| o.max_quat_norm_error)
+        .fold(0.0, Real::max);
+    let divergent = outcomes.iter().filter(|o| o.divergent).count();
+    let mut per_integrator = serde_json::Map::new();
+    for name in INTEGRATORS {
+        let mine: Vec<&Outcome> = outcomes
+            .iter()
+            .filter(|o| o.config.integrator == name)
+            .collect();
+        per_integrator.insert(
+            name.to_owned(),
+            json!({
+                "runs": mine.len(),
+                "divergent_runs": mine.iter().filter(|o| o.divergent).count(),
+                "stable_runs": mine.iter().filter(|o| o.stable).count(),
+                "passivity_min_energy_j": mine.iter().map(|o| o.passivity_min_energy_j).fold(0.0, Real::min),
+            }),
+        );
+    }
+    let map = stability_map(&outcomes);
+    write_json(
+        &dir.join("stress.json"),
+        &json!({
+            "steps_total": steps_total,
+            "configurations": outcomes.len(),
+            "nan_forces_sent": nan_sent,
+            "over_limit_forces_sent": over_sent,
+            "max_quat_norm_error": quat,
+            "divergent_runs": divergent,
+            "integrators": per_integrator,
+            "stability_map": map.1,
+            "runs": outcomes,
+        }),
+    )?;
+    std::fs::write(dir.join("stability.md"), &map.0)?;
+    println!(
+        "{steps_total} steps, {} configurations: {nan_sent} NaN forces sent, {over_sent} over-limit forces sent, max |q| error {quat:.1e}, {divergent} divergent runs",
+        outcomes.len()
+    );
+    println!("{}", map.0);
+    println!("wrote {}", dir.join("stress.json").display());
+    Ok(())
+}
+
+/// The stability map: for each integrator, the fraction of smooth-motion runs that are stable,
+/// by decade of mass and by the coupling-stiffness-to-mass ratio. Returns Markdown and JSON.
+fn stability_map(outcomes: &[Outcome]) -> (String, serde_json::Value) {
+    let mass_bins: [(Real, Real); 4] = [(5e-4, 5e-3), (5e-3, 5e-2), (5e-2, 0.5), (0.5, 1.0 + 1e-9)];
+    let rate_bins: [(Real, Real); 2] = [(10.0, 100.0), (100.0, 1000.0 + 1e-9)];
+    let mut md = String::from(
+        "| integrator | contact rate | 0.5–5 g | 5–50 g | 50–500 g | 0.5–1 kg |\n|---|---|---|---|---|---|\n",
+    );
+    let mut cells = Vec::new();
+    for name in INTEGRATORS {
+        for (rlo, rhi) in rate_bins {
+            let mut row = format!("| {name} | {rlo:.0}–{:.0} Hz |", rhi.floor());
+            for (mlo, mhi) in mass_bins {
+                let runs: Vec<&Outcome> = outcomes
+                    .iter()
+                    .filter(|o| {
+                        o.config.integrator == name
+                            && matches!(o.config.motion, Motion::Smooth | Motion::NanBurst)
+                            && o.config.mass_kg >= mlo
+                            && o.config.mass_kg < mhi
+                            && o.config.contact_rate_hz >= rlo
+                            && o.config.contact_rate_hz < rhi
+                    })
+                    .collect();
+                let stable = runs.iter().filter(|o| o.stable).count();
+                if runs.is_empty() {
+                    row.push_str(" – |");
+                } else {
+                    row.push_str(&format!(" {stable}/{} |", runs.len()));
+                }
+                cells.push(json!({
+                    "integrator": name,
+                    "contact_rate_hz": [rlo, rhi],
+                    "mass_kg": [mlo, mhi],
+                    "runs": runs.len(),
+                    "stable": stable,
+                }));
+            }
+            md.push_str(&row);
+            md.push('\n');
+        }
+    }
+    (md, serde_json::Value::Array(cells))
 }
