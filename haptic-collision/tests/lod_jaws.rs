@@ -1,45 +1,17 @@
 //! Timing and accuracy study of `LodBackend` on the shared jaws (ignored by default; run with
 //! `cargo test -p haptic-collision --release -- --ignored lod_jaws --nocapture`).
 
-use std::collections::HashMap;
 use std::time::Instant;
 
 use haptic_collision::lod::LodBackend;
-use haptic_collision::mesh::{DegeneratePolicy, TriMesh};
+use haptic_collision::mesh::{DegeneratePolicy, LoadOptions, TriMesh};
 use haptic_core::{CollisionBackend, ContactSet, Pose, QueryParams, Real, Vec3};
 use nalgebra::UnitQuaternion;
 
 const MESHES: &str = "/work/shared/meshes";
 
-/// Minimal binary STL reader with exact vertex welding (test-only; the crate's loaders live in
-/// `mesh`).
 fn read_stl(path: &str, scale: Real) -> Option<TriMesh> {
-    let bytes = std::fs::read(path).ok()?;
-    let n = u32::from_le_bytes(bytes.get(80..84)?.try_into().ok()?) as usize;
-    let mut index: HashMap<[u32; 3], u32> = HashMap::new();
-    let mut vertices = Vec::new();
-    let mut triangles = Vec::with_capacity(n);
-    for t in 0..n {
-        let rec = bytes.get(84 + 50 * t..84 + 50 * t + 50)?;
-        let mut tri = [0u32; 3];
-        for (k, slot) in tri.iter_mut().enumerate() {
-            let mut key = [0u32; 3];
-            for (c, kc) in key.iter_mut().enumerate() {
-                let o = 12 + 12 * k + 4 * c;
-                *kc = u32::from_le_bytes(rec[o..o + 4].try_into().ok()?);
-            }
-            *slot = *index.entry(key).or_insert_with(|| {
-                vertices.push(Vec3::new(
-                    f32::from_bits(key[0]) as Real * scale,
-                    f32::from_bits(key[1]) as Real * scale,
-                    f32::from_bits(key[2]) as Real * scale,
-                ));
-                (vertices.len() - 1) as u32
-            });
-        }
-        triangles.push(tri);
-    }
-    TriMesh::new(vertices, triangles, DegeneratePolicy::Drop)
+    TriMesh::load(path, &LoadOptions::with_scale(scale))
         .ok()
         .map(|m| m.0)
 }
