@@ -218,6 +218,13 @@ pub struct HapticStats {
     pub divergences: u64,
     /// Largest `| |q| - 1 |` of the tool state seen.
     pub max_quat_norm_error: Real,
+    /// Passivity observer: energy that has flowed from the device port into the simulation,
+    /// translational and rotational (J). Negative means the simulation has generated energy.
+    pub port_energy_j: [Real; 2],
+    /// Lowest value `port_energy_j[0] + port_energy_j[1]` reached before any correction (J).
+    pub min_port_energy_j: Real,
+    /// Steps in which the passivity controller added damping.
+    pub passivity_corrections: u64,
 }
 
 /// Safety settings of the haptic stage.
@@ -230,6 +237,10 @@ pub struct SafetyConfig {
     /// A coupling deviation beyond this (m) counts as a divergence: the tool is put back at the
     /// handle, at rest.
     pub divergence_bound_m: Real,
+    /// The passivity controller (Hannaford & Ryu 2002) at the device port: when the passivity
+    /// observer finds that the simulation has generated energy, a variable damping on the wrench
+    /// sent dissipates exactly that energy in the same step. Off by default.
+    pub passivity_controller: bool,
 }
 
 impl Default for SafetyConfig {
@@ -238,6 +249,7 @@ impl Default for SafetyConfig {
             contact_timeout_s: 0.1,
             contact_fade_s: 0.1,
             divergence_bound_m: 0.5,
+            passivity_controller: false,
         }
     }
 }
@@ -388,8 +400,10 @@ impl<I: Integrator, D: Device> HapticStage<I, D> {
             self.stats.divergences += 1;
             self.tool = self.forces.coupling.tool_at_handle();
         }
-        // 5. The coupling force with the new state, saturated to the device.
-        let reaction = self.forces.coupling.device_reaction(&self.body, &self.tool);
+        // 5. The coupling force with the new state, through the passivity observer (and
+        //    controller, if on), saturated to the device.
+        let mut reaction = self.forces.coupling.device_reaction(&self.body, &self.tool);
+        self.passivity(&mut reaction, &reading, dt_s);
         let (wrench, clamped) = self.limits.saturate(&reaction);
         if clamped {
             self.stats.saturation_events += 1;
@@ -405,6 +419,34 @@ impl<I: Integrator, D: Device> HapticStage<I, D> {
         self.last_wrench = wrench;
         self.stats.max_force_n = self.stats.max_force_n.max(wrench.force.norm());
         Ok(StepOutcome::Stepped)
+    }
+
+    /// Passivity observer and controller (Hannaford & Ryu 2002), one per port (translation,
+    /// rotation): `E ← E − (F·v) Δt` is the energy that has entered the simulation through the
+    /// port. When `E < 0` and the controller is on, `F ← F − α v` with `α = −E / (|v|² Δt)`
+    /// dissipates the deficit, bringing `E` back to 0.
+    fn passivity(&mut self, w: &mut Wrench, reading: &DeviceState, dt_s: Real) {
+        let stats = &mut self.stats;
+        let ports = [
+            (&mut w.force, reading.twist.linear),
+            (&mut w.torque, reading.twist.angular),
+        ];
+        for (k, (f, v)) in ports.into_iter().enumerate() {
+            let p = f.dot(&v);
+            if !p.is_finite() {
+                continue;
+            }
+            stats.port_energy_j[k] -= p * dt_s;
+            let v2 = v.norm_squared();
+            if self.safety.passivity_controller && stats.port_energy_j[k] < 0.0 && v2 > 1e-12 {
+                let alpha = -stats.port_energy_j[k] / (v2 * dt_s);
+                *f -= v * alpha;
+                stats.port_energy_j[k] = 0.0;
+                stats.passivity_corrections += 1;
+            }
+        }
+        let total = stats.port_energy_j[0] + stats.port_energy_j[1];
+        stats.min_port_energy_j = stats.min_port_energy_j.min(total);
     }
 
     fn zero_force_step(&mut self, solver_failure: bool) -> Result<StepOutcome, DeviceFailure> {

@@ -246,7 +246,12 @@ fn config(seed: u64) -> Config {
 }
 
 /// Runs one configuration.
-fn run_one(base: &SceneParts, backend: &LodBackend, c: &Config) -> anyhow::Result<Outcome> {
+fn run_one(
+    base: &SceneParts,
+    backend: &LodBackend,
+    c: &Config,
+    passivity_controller: bool,
+) -> anyhow::Result<Outcome> {
     let mut parts = base.clone();
     parts.body = RigidBody::new(
         c.mass_kg,
@@ -268,6 +273,7 @@ fn run_one(base: &SceneParts, backend: &LodBackend, c: &Config) -> anyhow::Resul
         base.penalty.delta_m,
     )?;
     parts.config.query = QueryParams::new(base.penalty.delta_m, 0.025)?;
+    parts.config.safety.passivity_controller = passivity_controller;
     let device = Probe::new(device_for(c.motion, parts.tool_pose, parts.limits)?);
     let latency = ContactLatency::FixedRate {
         rate_hz: c.contact_rate_hz,
@@ -340,7 +346,7 @@ pub fn run(args: &StressArgs) -> anyhow::Result<()> {
     let outcomes: Vec<anyhow::Result<Outcome>> = (0..runs)
         .into_par_iter()
         .map(|seed| {
-            let r = run_one(&base, &backend, &config(seed));
+            let r = run_one(&base, &backend, &config(seed), false);
             done.fetch_add(1, Ordering::Relaxed);
             bar.inc(1);
             r
@@ -373,6 +379,28 @@ pub fn run(args: &StressArgs) -> anyhow::Result<()> {
             }),
         );
     }
+    // The passivity controller, measured on the smooth-motion runs that are unstable without it.
+    let unstable: Vec<&Outcome> = outcomes
+        .iter()
+        .filter(|o| !o.stable && matches!(o.config.motion, Motion::Smooth | Motion::NanBurst))
+        .collect();
+    let with_pc: Vec<Outcome> = unstable
+        .par_iter()
+        .map(|o| run_one(&base, &backend, &o.config, true))
+        .collect::<Result<_, _>>()?;
+    let pc_stable = with_pc.iter().filter(|o| o.stable).count();
+    let pc_min_energy = with_pc
+        .iter()
+        .map(|o| o.passivity_min_energy_j)
+        .fold(0.0, Real::min);
+    let before_min_energy = unstable
+        .iter()
+        .map(|o| o.passivity_min_energy_j)
+        .fold(0.0, Real::min);
+    println!(
+        "passivity controller on the {} unstable smooth-motion runs: {pc_stable} become stable; lowest port energy {before_min_energy:.3} J without, {pc_min_energy:.3} J with",
+        unstable.len()
+    );
     let map = stability_map(&outcomes);
     write_json(
         &dir.join("stress.json"),
@@ -385,6 +413,14 @@ pub fn run(args: &StressArgs) -> anyhow::Result<()> {
             "divergent_runs": divergent,
             "integrators": per_integrator,
             "stability_map": map.1,
+            "passivity_controller": {
+                "rerun_unstable_smooth_runs": unstable.len(),
+                "stable_with_controller": pc_stable,
+                "min_port_energy_without_j": before_min_energy,
+                "min_port_energy_with_j": pc_min_energy,
+                "nan_forces_sent": with_pc.iter().map(|o| o.nan_forces_sent).sum::<u64>(),
+                "over_limit_forces_sent": with_pc.iter().map(|o| o.over_limit_forces_sent).sum::<u64>(),
+            },
             "runs": outcomes,
         }),
     )?;
