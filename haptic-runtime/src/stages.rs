@@ -210,7 +210,7 @@ pub struct HapticStats {
     pub saturation_events: u64,
     /// Zero-force steps for NaN or failed solves.
     pub nan_events: u64,
-    /// Integration failures.
+    /// Integration failures (zero force sent, tool put back at the handle).
     pub solver_failures: u64,
     /// Steps with a stale (faded) contact model.
     pub stale_steps: u64,
@@ -389,7 +389,12 @@ impl<I: Integrator, D: Device> HapticStage<I, D> {
                 .step(&self.body, &self.tool, now_s, dt_s, &mut self.forces)
             {
                 Ok(s) if s.is_finite() => s,
-                _ => return self.zero_force_step(true),
+                _ => {
+                    // The state cannot be advanced from here: put the tool back at the handle,
+                    // at rest, so that the next step starts from a sane state.
+                    self.tool = self.forces.coupling.tool_at_handle();
+                    return self.zero_force_step(true);
+                }
             };
         let quat_err = (new_state.q.coords.norm() - 1.0).abs();
         self.stats.max_quat_norm_error = self.stats.max_quat_norm_error.max(quat_err);

@@ -84,6 +84,12 @@ struct Outcome {
     over_limit_forces_sent: u64,
     max_quat_norm_error: Real,
     divergent: bool,
+    /// Tool resets after the coupling stretched past the divergence bound.
+    resets: u64,
+    /// Integration steps that failed (zero force sent).
+    solver_failures: u64,
+    /// Largest coupling deviation (m).
+    max_coupling_deviation_m: Real,
     stable: bool,
     passivity_min_energy_j: Real,
     max_force_n: Real,
@@ -307,11 +313,13 @@ fn run_one(
         _ => go!(ForwardEuler),
     };
     let divergent = stats.divergences > 0 || stats.solver_failures > 0;
-    // Stable: no divergence, and (for the motions that stay in the workspace smoothly) the
-    // coupling stretches less than 5 cm and the force never reaches the device's limit.
+    // Stable: no divergence or failed step; the coupling stretches less than 10 cm (the smooth
+    // motion pushes the handle at most about 4 cm past the cup wall; the force may saturate,
+    // which is the device's limit, not an instability); the tool does not sink more than 5 mm
+    // into the cup. Teleports and spins are judged on divergence only.
     let violent = matches!(c.motion, Motion::Teleports | Motion::Spin);
     let stable = !divergent
-        && (violent || (stats.max_coupling_deviation_m < 0.05 && summary.saturation_events == 0));
+        && (violent || (stats.max_coupling_deviation_m < 0.1 && summary.max_penetration_m < 5e-3));
     Ok(Outcome {
         config: c.clone(),
         steps: stats.steps,
@@ -319,6 +327,9 @@ fn run_one(
         over_limit_forces_sent: over_sent,
         max_quat_norm_error: stats.max_quat_norm_error,
         divergent,
+        resets: stats.divergences,
+        solver_failures: stats.solver_failures,
+        max_coupling_deviation_m: stats.max_coupling_deviation_m,
         stable,
         passivity_min_energy_j: min_energy,
         max_force_n: summary.max_force_n,
