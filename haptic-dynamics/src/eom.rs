@@ -46,12 +46,25 @@ pub fn free_jacobian(
     for i in 0..3 {
         out[(IX + i, IP + i)] = inv_m; // eq. 6
     }
-    let q = state_quat(y);
-    let qm = q_matrix(&q);
-    let dqq = 0.5 * omega_matrix(&kin.omega) + 0.5 * qm * kin.omega_q; // eqs. 8, 11
+    let (dqq, dql) = quaternion_jacobian_blocks(y, kin);
     out.fixed_view_mut::<4, 4>(IQ, IQ).copy_from(&dqq);
-    let dql = 0.5 * qm * kin.inertia_world_inv; // eq. 9
     out.fixed_view_mut::<4, 3>(IQ, IL).copy_from(&dql);
+}
+
+/// The two non-zero blocks of the quaternion rows of `∂f/∂y`: `∂q̇/∂q = ½ Ω(ω) + ½ Q(q) ∂ω/∂q`
+/// (eqs. 8, 11) and `∂q̇/∂L = ½ Q(q) I_w⁻¹` (eq. 9).
+#[inline]
+pub fn quaternion_jacobian_blocks(
+    y: &StateVector,
+    kin: &Kinematics,
+) -> (
+    nalgebra::Matrix4<haptic_core::Real>,
+    nalgebra::Matrix4x3<haptic_core::Real>,
+) {
+    let qm = q_matrix(&state_quat(y));
+    let dqq = 0.5 * omega_matrix(&kin.omega) + 0.5 * qm * kin.omega_q; // eqs. 8, 11
+    let dql = 0.5 * qm * kin.inertia_world_inv; // eq. 9
+    (dqq, dql)
 }
 
 /// Adds a 6×13 wrench Jacobian `∂(F, T)/∂y` into the `dP` and `dL` rows of `out` (eq. 10).

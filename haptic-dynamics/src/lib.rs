@@ -51,7 +51,10 @@ pub use coupling::{
     CouplingDeviation, CouplingParams, Grasp, Saturation, SplineSpring, VirtualCoupling,
     rotation_vector,
 };
-pub use eom::{add_wrench_jacobian, free_jacobian, state_derivative, system_jacobian};
+pub use eom::{
+    add_wrench_jacobian, free_jacobian, quaternion_jacobian_blocks, state_derivative,
+    system_jacobian,
+};
 pub use error::DynamicsError;
 pub use forces::{Gravity, HapticForces};
 pub use integrators::{BackwardEuler, ForwardEuler, IntegratorKind, NewtonBackwardEuler, Rk4};
