@@ -174,8 +174,8 @@ fn nan_from_the_device_sends_zero_force_and_is_counted() {
 #[test]
 fn a_stalled_contact_thread_fades_contact_forces_and_the_haptic_loop_keeps_its_rate() {
     let mut backend = Misbehaving::new(BoxOnFloor::new(HALF_M));
-    // The first queries are in free space; stall once the box presses on the floor.
-    backend.stall_at = Some(150);
+    // Stall on the 5th query that finds contacts: the box is on the floor by then.
+    backend.stall_at = Some(5);
     backend.stall = Duration::from_millis(500);
     let mut p = box_pipeline(backend, pressing_hand());
     let s = p.run_realtime(1.0, |_| {}).unwrap();
@@ -188,7 +188,7 @@ fn a_stalled_contact_thread_fades_contact_forces_and_the_haptic_loop_keeps_its_r
 #[test]
 fn a_panicking_contact_thread_is_reported_and_contact_forces_fade() {
     let mut backend = Misbehaving::new(BoxOnFloor::new(HALF_M));
-    backend.panic_at = Some(150);
+    backend.panic_at = Some(5);
     let mut p = box_pipeline(backend, pressing_hand());
     let s = p.run_realtime(1.0, |_| {}).unwrap();
     assert!(s.contact_thread_panicked);
@@ -254,4 +254,97 @@ fn passivity_controller_dissipates_the_energy_the_observer_finds() {
         "{:?}",
         with.port_energy_j
     );
+}
+
+#[test]
+fn bad_configuration_and_set_up_give_typed_errors() {
+    let build = |config: PipelineConfig| {
+        PipelineBuilder::new(
+            box_body(),
+            Pose::from_position(Vec3::new(0.0, 0.0, HALF_M + 0.01)),
+        )
+        .integrator(BackwardEuler)
+        .backend(BoxOnFloor::new(HALF_M))
+        .contact_model(PenaltyModel::new(PenaltyParams::default()).unwrap())
+        .device(pressing_hand())
+        .config(config)
+        .build()
+    };
+    let field_of = |r: Result<_, RuntimeError>| match r {
+        Err(RuntimeError::Config { field, .. }) => field,
+        Err(other) => panic!("unexpected error {other}"),
+        Ok(_) => panic!("accepted a bad configuration"),
+    };
+    assert_eq!(
+        field_of(build(PipelineConfig {
+            haptic_rate_hz: 0.0,
+            ..PipelineConfig::default()
+        })),
+        "haptic_rate_hz"
+    );
+    assert_eq!(
+        field_of(build(PipelineConfig {
+            haptic_rate_hz: 50_000.0,
+            ..PipelineConfig::default()
+        })),
+        "haptic_rate_hz"
+    );
+    let mut safety = haptic_runtime::SafetyConfig::default();
+    safety.contact_timeout_s = -1.0;
+    assert_eq!(
+        field_of(build(PipelineConfig {
+            safety,
+            ..PipelineConfig::default()
+        })),
+        "safety.contact_timeout_s"
+    );
+    assert_eq!(
+        field_of(build(PipelineConfig {
+            gravity: Some(Vec3::new(0.0, 0.0, f64::NAN)),
+            ..PipelineConfig::default()
+        })),
+        "gravity"
+    );
+    let mut cluster = haptic_cluster::ClusterParams::default();
+    cluster.max_clusters = 0;
+    assert_eq!(
+        field_of(build(PipelineConfig {
+            cluster,
+            ..PipelineConfig::default()
+        })),
+        "cluster"
+    );
+    // A device whose first reading fails: a device error, before anything runs.
+    let dead = FaultInjector::new(pressing_hand(), Fault::DisconnectAfter { reads: 0 });
+    let r = PipelineBuilder::new(box_body(), Pose::identity())
+        .integrator(BackwardEuler)
+        .backend(BoxOnFloor::new(HALF_M))
+        .contact_model(PenaltyModel::new(PenaltyParams::default()).unwrap())
+        .device(dead)
+        .build();
+    assert!(matches!(
+        r,
+        Err(RuntimeError::Device {
+            kind: DeviceErrorKind::Disconnected,
+            ..
+        })
+    ));
+}
+
+#[test]
+fn a_scene_with_a_missing_mesh_names_the_field() {
+    let mut scene = spoon_cup();
+    scene.obstacles[0].mesh = PathBuf::from("/nonexistent/cup.stl");
+    match scene.assemble() {
+        Err(haptic_runtime::SceneError::Invalid { field, .. }) => {
+            assert_eq!(field, "obstacles[0].mesh")
+        }
+        other => panic!("unexpected {other:?}"),
+    }
+    let mut scene = spoon_cup();
+    scene.tool.mesh = PathBuf::from("/nonexistent/spoon.stl");
+    assert!(matches!(
+        scene.assemble(),
+        Err(haptic_runtime::SceneError::Invalid { field, .. }) if field == "tool.mesh"
+    ));
 }

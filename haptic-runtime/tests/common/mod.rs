@@ -71,7 +71,9 @@ impl CollisionBackend for BoxOnFloor {
     }
 }
 
-/// Wraps a back-end: the `stall_at`-th query sleeps for `stall`, the `panic_at`-th panics.
+/// Wraps a back-end: the `stall_at`-th query *that finds contacts* sleeps for `stall`, the
+/// `panic_at`-th panics (counted on contact queries, so that a contact model is in use when the
+/// fault hits, however slowly a loaded machine runs the contact thread).
 pub struct Misbehaving<B> {
     pub inner: B,
     pub queries: u64,
@@ -106,13 +108,16 @@ impl<B: CollisionBackend> CollisionBackend for Misbehaving<B> {
         params: &QueryParams,
         out: &mut ContactSet,
     ) -> Result<QueryStats, B::Error> {
-        self.queries += 1;
-        if self.stall_at == Some(self.queries) {
-            std::thread::sleep(self.stall);
+        let stats = self.inner.query(pose, params, out)?;
+        if !out.is_empty() {
+            self.queries += 1;
+            if self.stall_at == Some(self.queries) {
+                std::thread::sleep(self.stall);
+            }
+            if self.panic_at == Some(self.queries) {
+                panic!("injected collision back-end panic");
+            }
         }
-        if self.panic_at == Some(self.queries) {
-            panic!("injected collision back-end panic");
-        }
-        self.inner.query(pose, params, out)
+        Ok(stats)
     }
 }
