@@ -142,6 +142,21 @@ impl Points {
         Vec3::new(self.x[i], self.y[i], self.z[i])
     }
 
+    /// The point closest to `c`: (squared distance, index); ties go to the lowest index.
+    fn closest(&self, c: &Vec3) -> (Real, usize) {
+        let n = self.x.len();
+        let (x, y, z) = (&self.x[..n], &self.y[..n], &self.z[..n]);
+        let mut best = (Real::INFINITY, usize::MAX);
+        for i in 0..n {
+            let (dx, dy, dz) = (x[i] - c.x, y[i] - c.y, z[i] - c.z);
+            let d = dx * dx + dy * dy + dz * dz;
+            if d < best.0 {
+                best = (d, i);
+            }
+        }
+        best
+    }
+
     /// `out[i] = |p_i − c|²` for every point.
     fn distances_squared(&self, c: &Vec3, out: &mut [Real]) {
         let n = out.len();
@@ -376,10 +391,9 @@ impl Clusterer {
             self.seed_of_old.clear();
             self.seed_of_old.resize(m, usize::MAX);
             self.best_of_old.clear();
-            for (j, (old, _)) in self.previous.iter().enumerate() {
-                let row = &mut self.dist[j * n..(j + 1) * n];
-                self.points.distances_squared(old, row);
-                self.best_of_old.push(closest_free(row, &self.taken_new));
+            // Nothing is taken yet: a plain arg-min per old cluster, in one pass.
+            for (old, _) in &self.previous {
+                self.best_of_old.push(self.points.closest(old));
             }
             for _ in 0..m {
                 let mut pick = usize::MAX;
@@ -401,8 +415,10 @@ impl Clusterer {
                 // Old clusters whose closest contact was just taken look again.
                 for j in 0..m {
                     if !self.taken_old[j] && self.best_of_old[j].1 == i {
-                        self.best_of_old[j] =
-                            closest_free(&self.dist[j * n..(j + 1) * n], &self.taken_new);
+                        // Rare (two old clusters nearest the same contact): look again.
+                        let row = &mut self.dist[..n];
+                        self.points.distances_squared(&self.previous[j].0, row);
+                        self.best_of_old[j] = closest_free(row, &self.taken_new);
                     }
                 }
             }
