@@ -289,8 +289,10 @@ fn bad_configuration_and_set_up_give_typed_errors() {
         })),
         "haptic_rate_hz"
     );
-    let mut safety = haptic_runtime::SafetyConfig::default();
-    safety.contact_timeout_s = -1.0;
+    let safety = haptic_runtime::SafetyConfig {
+        contact_timeout_s: -1.0,
+        ..Default::default()
+    };
     assert_eq!(
         field_of(build(PipelineConfig {
             safety,
@@ -305,8 +307,10 @@ fn bad_configuration_and_set_up_give_typed_errors() {
         })),
         "gravity"
     );
-    let mut cluster = haptic_cluster::ClusterParams::default();
-    cluster.max_clusters = 0;
+    let cluster = haptic_cluster::ClusterParams {
+        max_clusters: 0,
+        ..Default::default()
+    };
     assert_eq!(
         field_of(build(PipelineConfig {
             cluster,
