@@ -313,22 +313,25 @@ impl Clusterer {
         if !(delta_m.is_finite() && delta_m > 0.0) {
             return Err(ClusterError::BadDelta { delta_m });
         }
-        validate(contacts)?;
         let n = contacts.len();
-        self.assign.clear();
-        if n == 0 {
-            self.previous.clear();
-            return Ok(ClusterStats::default());
-        }
         self.points.x.resize(n, 0.0);
         self.points.y.resize(n, 0.0);
         self.points.z.resize(n, 0.0);
         self.weights.resize(n, 0.0);
+        // Validate and copy in one pass over the contacts.
         for (i, c) in contacts.iter().enumerate() {
+            if !screen(c) {
+                validate_one(i, c)?;
+            }
             self.points.x[i] = c.p_a.x;
             self.points.y[i] = c.p_a.y;
             self.points.z[i] = c.p_a.z;
             self.weights[i] = weight(c.depth_m, delta_m);
+        }
+        self.assign.clear();
+        if n == 0 {
+            self.previous.clear();
+            return Ok(ClusterStats::default());
         }
         self.assign.resize(n, 0);
         let k_max = self.params.max_clusters.min(n);
@@ -672,26 +675,25 @@ impl Clusterer {
     }
 }
 
-/// Checks every contact: a cheap screen first (the sum of all fields is finite only if each
-/// is, and `|n|² ≈ 1`), and [`Contact::validate`] for the precise error when it fails.
-fn validate(contacts: &[Contact]) -> Result<(), ClusterError> {
-    for (index, c) in contacts.iter().enumerate() {
-        let sum = c.p_a.sum() + c.r_a.sum() + c.p_b.sum() + c.n.sum() + c.depth_m;
-        let n2 = c.n.norm_squared();
-        // |n| within 1e-6 of 1 ⇔ |n|² within about 2e-6 of 1; screen a little inside that.
-        if sum.is_finite() && (n2 - 1.0).abs() <= 1.9e-6 {
-            continue;
-        }
-        c.validate().map_err(|e| match e {
-            CoreError::BadNormal { norm } => ClusterError::BadNormal { index, norm },
-            CoreError::NonFinite { what } => ClusterError::NonFiniteContact { index, what },
-            _ => ClusterError::NonFiniteContact {
-                index,
-                what: "field",
-            },
-        })?;
-    }
-    Ok(())
+/// A cheap screen of a contact: the sum of all its fields is finite only if each is, and
+/// `|n|² ≈ 1` (within about 1.9e-6, inside [`Contact::validate`]'s 1e-6 on `|n|`). `true` means
+/// valid; `false` calls for [`validate_one`], which gives the precise error (or accepts).
+#[inline]
+fn screen(c: &Contact) -> bool {
+    let sum = c.p_a.sum() + c.r_a.sum() + c.p_b.sum() + c.n.sum() + c.depth_m;
+    sum.is_finite() && (c.n.norm_squared() - 1.0).abs() <= 1.9e-6
+}
+
+/// [`Contact::validate`], with the error mapped to the clustering's and the contact's index.
+fn validate_one(index: usize, c: &Contact) -> Result<(), ClusterError> {
+    c.validate().map_err(|e| match e {
+        CoreError::BadNormal { norm } => ClusterError::BadNormal { index, norm },
+        CoreError::NonFinite { what } => ClusterError::NonFiniteContact { index, what },
+        _ => ClusterError::NonFiniteContact {
+            index,
+            what: "field",
+        },
+    })
 }
 
 /// Weighted sums over one cluster's contacts.
