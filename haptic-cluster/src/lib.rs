@@ -357,12 +357,12 @@ impl Clusterer {
             // can only lower the cost further.
             self.update_centroids();
         }
-        let cost = self.cost();
+        // The final cost comes out of the representatives' pass.
+        let cost = self.write_representatives(contacts, delta_m, out);
         if self.record_costs && !converged {
             self.costs.push(cost);
         }
 
-        self.write_representatives(contacts, delta_m, out);
         self.previous.clear();
         self.previous.extend(out.iter().map(|r| (r.p_a, r.depth_m)));
         Ok(ClusterStats {
@@ -633,7 +633,13 @@ impl Clusterer {
 
     /// One representative per cluster (eqs. 30–32, see the crate docs), in one pass over the
     /// contacts.
-    fn write_representatives(&mut self, contacts: &[Contact], delta_m: Real, out: &mut ContactSet) {
+    /// Returns the cost `E` (eq. 28) of the final assignment and centroids.
+    fn write_representatives(
+        &mut self,
+        contacts: &[Contact],
+        delta_m: Real,
+        out: &mut ContactSet,
+    ) -> Real {
         let k = self.centroids.len();
         self.acc.clear();
         self.acc.resize(k, Accumulator::default());
@@ -644,6 +650,7 @@ impl Clusterer {
             .enumerate()
         {
             let acc = &mut self.acc[a as usize];
+            acc.cost += w * (c.p_a - self.centroids[a as usize]).norm_squared();
             acc.w += w;
             acc.p_a += c.p_a * w;
             acc.r_a += c.r_a * w;
@@ -672,6 +679,7 @@ impl Clusterer {
                 feature_b: deepest.feature_b,
             });
         }
+        self.acc.iter().map(|a| a.cost).sum()
     }
 }
 
@@ -699,6 +707,7 @@ fn validate_one(index: usize, c: &Contact) -> Result<(), ClusterError> {
 /// Weighted sums over one cluster's contacts.
 #[derive(Debug, Clone, Copy)]
 struct Accumulator {
+    cost: Real,
     w: Real,
     p_a: Vec3,
     r_a: Vec3,
@@ -710,6 +719,7 @@ struct Accumulator {
 impl Default for Accumulator {
     fn default() -> Self {
         Self {
+            cost: 0.0,
             w: 0.0,
             p_a: Vec3::zeros(),
             r_a: Vec3::zeros(),
