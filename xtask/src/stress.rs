@@ -11,9 +11,7 @@
 use std::sync::atomic::{AtomicU64, Ordering};
 
 use haptic_collision::LodBackend;
-use haptic_core::{
-    Device, DeviceLimits, DeviceState, Pose, QueryParams, Real, RigidBody, Vec3, Wrench,
-};
+use haptic_core::{Device, DeviceLimits, DeviceState, Pose, QueryParams, Real, Vec3, Wrench};
 use haptic_device::{Fault, FaultInjector, ScriptedDevice, Waypoint};
 use haptic_dynamics::{
     BackwardEuler, CouplingParams, ForwardEuler, NewtonBackwardEuler, PenaltyModel, PenaltyParams,
@@ -259,10 +257,7 @@ fn run_one(
     passivity_controller: bool,
 ) -> anyhow::Result<Outcome> {
     let mut parts = base.clone();
-    parts.body = RigidBody::new(
-        c.mass_kg,
-        *base.body.inertia_body() * (c.mass_kg / base.body.mass_kg()),
-    )?;
+    parts.body = base.body.with_mass(c.mass_kg)?;
     // The coupling's damping scales with its stiffness (the free-space study's ratios).
     let d = CouplingParams::default();
     let ratio = c.coupling_n_per_m / d.stiffness_n_per_m;

@@ -461,7 +461,7 @@ fn file_name(p: &Path) -> String {
 /// Loads a tool and moves its body frame to its centre of mass (or, if the mass properties are
 /// refused, e.g. for an open mesh, to its bounding-box centre). Returns the mesh in its body
 /// frame and where that origin was in the file's frame (m).
-fn load_tool(path: &Path, scale: Real) -> anyhow::Result<(TriMesh, Vec3)> {
+pub(super) fn load_tool(path: &Path, scale: Real) -> anyhow::Result<(TriMesh, Vec3)> {
     let (mesh, _) = TriMesh::load(path, &LoadOptions::with_scale(scale))
         .with_context(|| format!("loading {}", path.display()))?;
     let origin = match mesh.mass_properties(1000.0) {
@@ -476,7 +476,7 @@ fn load_tool(path: &Path, scale: Real) -> anyhow::Result<(TriMesh, Vec3)> {
 
 /// The jaws: the upper jaw at its stored place in occlusion (body origin at `com`), moved along a
 /// closed path by up to 0.5 mm sideways, from 0.1 mm down to 0.5 mm up, and tilted by up to 0.3°.
-fn jaws_poses(com: &Vec3) -> Vec<Pose> {
+pub(super) fn jaws_poses(com: &Vec3) -> Vec<Pose> {
     (0..POSES)
         .map(|i| {
             let s = i as Real / POSES as Real * std::f64::consts::TAU;

@@ -21,10 +21,8 @@
 //!   handling of `haptic_runtime`'s contact stage (clear the representatives, no model).
 
 use std::hint::black_box;
-use std::path::Path;
 use std::time::Instant;
 
-use anyhow::Context;
 use haptic_cluster::{ClusterParams, Clusterer};
 use haptic_collision::{LoadOptions, LodBackend, ParryBackend, TriMesh};
 use haptic_core::{
@@ -40,8 +38,6 @@ use crate::work_precision::{Setup, hand_device, setup};
 
 /// Haptic rate, Hz.
 const RATE_HZ: Real = 1000.0;
-/// Jaws poses.
-const POSES: usize = 200;
 /// Distance tolerance of the jaws queries, m.
 const DELTA_M: Real = 1e-3;
 
@@ -127,43 +123,6 @@ fn cluster_frame(t: usize, n: usize) -> anyhow::Result<Vec<Contact>> {
             let n = Vec3::new(-0.06 * (30.0 * x).cos(), 0.0, 1.0).normalize();
             let d = 3e-4 * (1.0 + (200.0 * x + 100.0 * y).sin());
             Ok(Contact::new(p, p, p - d * n, n, d)?)
-        })
-        .collect()
-}
-
-/// Loads a tool with its body frame at its centre of mass; returns it and that point (m).
-fn load_tool(path: &Path, scale: Real) -> anyhow::Result<(TriMesh, Vec3)> {
-    let (mesh, _) = TriMesh::load(path, &LoadOptions::with_scale(scale))
-        .with_context(|| format!("loading {}", path.display()))?;
-    let origin = match mesh.mass_properties(1000.0) {
-        Ok(mp) => mp.centre_of_mass_m,
-        Err(_) => {
-            let (lo, hi) = mesh.bounding_box();
-            (lo + hi) * 0.5
-        }
-    };
-    Ok((mesh.translated(&-origin)?, origin))
-}
-
-/// The collision benchmark's jaws path (see `bench/collision.rs`).
-fn jaws_poses(com: &Vec3) -> Vec<Pose> {
-    (0..POSES)
-        .map(|i| {
-            let s = i as Real / POSES as Real * std::f64::consts::TAU;
-            let dp = Vec3::new(
-                0.5e-3 * s.sin(),
-                0.5e-3 * (2.0 * s).cos(),
-                0.3e-3 * (3.0 * s).sin() + 0.2e-3,
-            );
-            let rot = UnitQuaternion::from_scaled_axis(Vec3::new(
-                0.005 * s.cos(),
-                0.005 * s.sin(),
-                0.003 * (2.0 * s).sin(),
-            ));
-            Pose {
-                position: com + dp,
-                orientation: rot,
-            }
         })
         .collect()
 }
@@ -258,7 +217,8 @@ pub fn run(args: &super::BenchArgs) -> anyhow::Result<()> {
 
     // Jaws: build, queries.
     let meshes = common::meshes_dir();
-    let (tool, com) = load_tool(&meshes.join("jaw_upper_openfulljaw_p26.stl"), 1e-3)?;
+    let (tool, com) =
+        super::collision::load_tool(&meshes.join("jaw_upper_openfulljaw_p26.stl"), 1e-3)?;
     let (lower, _) = TriMesh::load(
         meshes.join("jaw_lower_openfulljaw_p26.stl"),
         &LoadOptions::with_scale(1e-3),
@@ -275,7 +235,7 @@ pub fn run(args: &super::BenchArgs) -> anyhow::Result<()> {
         "jaws: LOD build {build_s:.3} s, {:.1} MB; parry build {parry_build_s:.3} s",
         build_bytes as Real / 1e6
     );
-    let poses = jaws_poses(&com);
+    let poses = super::collision::jaws_poses(&com);
     let exact = QueryParams::new(DELTA_M, 0.0)?;
     let lod25 = QueryParams::new(DELTA_M, 0.025)?;
     let mut out = ContactSet::new();

@@ -2,7 +2,7 @@
 //! trajectory, in virtual time.
 
 use haptic_collision::LodBackend;
-use haptic_core::{Pose, Real, RigidBody, Vec3};
+use haptic_core::{Pose, Real, Vec3};
 use haptic_device::{ScriptedDevice, Waypoint};
 use haptic_dynamics::{BackwardEuler, PenaltyParams, Rk4};
 use haptic_runtime::{ContactLatency, Scene, SceneParts};
@@ -66,8 +66,7 @@ const CONFIGS: [Config; 3] = [
 /// contact stiffness.
 fn parts_for(base: &SceneParts, c: &Config) -> anyhow::Result<SceneParts> {
     let mut parts = base.clone();
-    let scale = c.mass_kg / base.body.mass_kg();
-    parts.body = RigidBody::new(c.mass_kg, *base.body.inertia_body() * scale)?;
+    parts.body = base.body.with_mass(c.mass_kg)?;
     parts.penalty = PenaltyParams::new(
         c.contact_stiffness_n_per_m,
         base.penalty.damping_ns_per_m,
