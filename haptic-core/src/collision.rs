@@ -24,24 +24,35 @@ impl QueryParams {
     /// [`CoreError::OutOfRange`] if `delta_m` is not positive and finite or `error_threshold` is
     /// negative or not finite.
     pub fn new(delta_m: Real, error_threshold: Real) -> Result<Self, CoreError> {
-        if !(delta_m > 0.0 && delta_m.is_finite()) {
+        let params = Self {
+            delta_m,
+            error_threshold,
+        };
+        params.validate()?;
+        Ok(params)
+    }
+
+    /// Checks the fields (they are public, so a back-end re-checks what it is given).
+    ///
+    /// # Errors
+    /// [`CoreError::OutOfRange`] naming `delta_m` (must be positive and finite) or
+    /// `error_threshold` (non-negative and finite).
+    pub fn validate(&self) -> Result<(), CoreError> {
+        if !(self.delta_m > 0.0 && self.delta_m.is_finite()) {
             return Err(CoreError::OutOfRange {
                 what: "delta_m",
-                value: delta_m,
+                value: self.delta_m,
                 expected: "positive and finite",
             });
         }
-        if !(error_threshold >= 0.0 && error_threshold.is_finite()) {
+        if !(self.error_threshold >= 0.0 && self.error_threshold.is_finite()) {
             return Err(CoreError::OutOfRange {
                 what: "error_threshold",
-                value: error_threshold,
+                value: self.error_threshold,
                 expected: "non-negative and finite",
             });
         }
-        Ok(Self {
-            delta_m,
-            error_threshold,
-        })
+        Ok(())
     }
 }
 

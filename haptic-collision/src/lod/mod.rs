@@ -215,21 +215,23 @@ impl LodBackend {
 
 /// Checks the public fields of the query parameters.
 pub(crate) fn check_params(params: &QueryParams) -> Result<(), LodError> {
-    if !(params.delta_m > 0.0 && params.delta_m.is_finite()) {
-        return Err(LodError::BadParams {
-            what: "delta_m",
-            value: params.delta_m,
-            expected: "positive and finite",
-        });
-    }
-    if !(params.error_threshold >= 0.0 && params.error_threshold.is_finite()) {
-        return Err(LodError::BadParams {
-            what: "error_threshold",
-            value: params.error_threshold,
-            expected: "non-negative and finite",
-        });
-    }
-    Ok(())
+    params.validate().map_err(|e| match e {
+        haptic_core::CoreError::OutOfRange {
+            what,
+            value,
+            expected,
+        } => LodError::BadParams {
+            what,
+            value,
+            expected,
+        },
+        // `validate` only reports ranges; keep any other core error's message as a range error.
+        _ => LodError::BadParams {
+            what: "query parameters",
+            value: Real::NAN,
+            expected: "valid",
+        },
+    })
 }
 
 impl CollisionBackend for LodBackend {
