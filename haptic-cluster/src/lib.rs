@@ -276,6 +276,17 @@ impl Clusterer {
         self.previous.clear();
     }
 
+    /// Makes `representatives` the history that the next call warm-starts from, as if they had
+    /// been the previous call's output (only their `p_a` and `depth_m` are used). Useful to
+    /// restore a saved state, or to cluster two contact sets of the same configuration from the
+    /// same seeds, so that they are compared in the same basin of Lloyd's method rather than in
+    /// whichever local minimum each chain of warm starts reached.
+    pub fn warm_start_from(&mut self, representatives: &[Contact]) {
+        self.previous.clear();
+        self.previous
+            .extend(representatives.iter().map(|r| (r.p_a, r.depth_m)));
+    }
+
     /// The cluster index of each contact of the last call.
     pub fn assignments(&self) -> &[u32] {
         &self.assign

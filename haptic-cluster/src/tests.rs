@@ -310,3 +310,25 @@ fn same_input_gives_same_output() {
     c.cluster(&frame, DELTA_M, &mut r2).unwrap();
     assert_eq!(r1.as_slice(), r2.as_slice());
 }
+
+#[test]
+fn warm_start_from_given_representatives_replays_that_history() {
+    // Clustering frame B after frame A, and clustering B in a fresh clusterer told A's
+    // representatives, give the same output; a cold start on B need not.
+    let (a, b) = (drifting_frame(0, 40), drifting_frame(300, 40));
+    let mut chained = Clusterer::new(ClusterParams::default()).unwrap();
+    let (mut reps_a, mut reps_b) = (ContactSet::new(), ContactSet::new());
+    chained.cluster(&a, DELTA_M, &mut reps_a).unwrap();
+    chained.cluster(&b, DELTA_M, &mut reps_b).unwrap();
+
+    let mut told = Clusterer::new(ClusterParams::default()).unwrap();
+    told.warm_start_from(reps_a.as_slice());
+    let mut reps = ContactSet::new();
+    let stats = told.cluster(&b, DELTA_M, &mut reps).unwrap();
+    assert!(stats.warm);
+    assert_eq!(reps.as_slice(), reps_b.as_slice());
+
+    // An empty history means a cold start.
+    told.warm_start_from(&[]);
+    assert!(!told.cluster(&b, DELTA_M, &mut reps).unwrap().warm);
+}
