@@ -242,11 +242,11 @@ pub fn sat_penetration(a: &[Vec3], na: &Vec3, b: &[Vec3], nb: &Vec3) -> (Real, V
     (best.max(0.0), best_axis)
 }
 
-/// Exact closest points / penetration between two planar convex polygons (`a` with unit normal
-/// `na`, `b` with `nb`, both CCW about their normals).
-pub fn convex_polygon_pair(a: &[Vec3], na: &Vec3, b: &[Vec3], nb: &Vec3) -> PairContact {
-    // Crossings: an edge of one polygon through the other. Their mean is a point of the
-    // intersection (the middle of the intersection segment for transversal polygons).
+/// A point common to two planar convex polygons, if they cross: the mean of the points where an
+/// edge of one passes through the other (the middle of the intersection segment for transversal
+/// polygons). Polygons that only touch in a common plane are not reported.
+#[inline]
+pub fn crossing_witness(a: &[Vec3], na: &Vec3, b: &[Vec3], nb: &Vec3) -> Option<Vec3> {
     let mut cross_sum = Vec3::zeros();
     let mut crossings = 0u32;
     let (ma, mb) = (a.len(), b.len());
@@ -262,8 +262,15 @@ pub fn convex_polygon_pair(a: &[Vec3], na: &Vec3, b: &[Vec3], nb: &Vec3) -> Pair
             crossings += 1;
         }
     }
-    let witness = if crossings > 0 {
-        Some(cross_sum / crossings as Real)
+    (crossings > 0).then(|| cross_sum / crossings as Real)
+}
+
+/// Exact closest points / penetration between two planar convex polygons (`a` with unit normal
+/// `na`, `b` with `nb`, both CCW about their normals).
+pub fn convex_polygon_pair(a: &[Vec3], na: &Vec3, b: &[Vec3], nb: &Vec3) -> PairContact {
+    let (ma, mb) = (a.len(), b.len());
+    let witness = if let Some(x) = crossing_witness(a, na, b, nb) {
+        Some(x)
     } else {
         // Distance: vertex–polygon and edge–edge candidates.
         let mut best_d2 = Real::INFINITY;
@@ -423,6 +430,22 @@ mod tests {
         assert!((c.depth + 0.5).abs() < 1e-15);
         assert!((c.n - Vec3::z()).norm() < 1e-12);
         assert!((c.p_a - c.p_b - c.n * c.depth).norm() < 1e-15);
+    }
+
+    #[test]
+    fn crossing_witness_lies_in_both_or_is_absent() {
+        let a = tri([-1.0, -1.0, 0.0], [1.0, -1.0, 0.0], [0.0, 1.0, 0.0]);
+        let na = triangle_normal(&a).unwrap();
+        // A vertical triangle through the middle of `a`.
+        let b = tri([0.0, -0.5, -1.0], [0.0, 0.5, -1.0], [0.0, 0.0, 1.0]);
+        let nb = triangle_normal(&b).unwrap();
+        let x = crossing_witness(&a, &na, &b, &nb).expect("they cross");
+        assert!(x.z.abs() < 1e-12 && x.x.abs() < 1e-12, "{x:?}");
+        assert!(closest_point_on_triangle(&x, &a).metric_distance(&x) < 1e-12);
+        assert!(closest_point_on_triangle(&x, &b).metric_distance(&x) < 1e-12);
+        // Lifted above `a`: no crossing.
+        let lifted = b.map(|v| v + Vec3::new(0.0, 0.0, 1.5));
+        assert!(crossing_witness(&a, &na, &lifted, &nb).is_none());
     }
 
     #[test]

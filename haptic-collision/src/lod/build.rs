@@ -46,6 +46,8 @@ pub(crate) struct Node {
     pub piece_start: u32,
     /// Number of vertices of the piece (0 when there is none).
     pub piece_len: u32,
+    /// Number of triangles below the node (1 for a leaf).
+    pub triangles: u32,
 }
 
 impl Node {
@@ -172,6 +174,7 @@ impl Hierarchy {
                 triangle: perm[lo as usize],
                 piece_start: 0,
                 piece_len: 0,
+                triangles: hi - lo,
             });
             ranges.push((lo, hi));
             if hi - lo > 1 {
@@ -331,7 +334,7 @@ fn fill_bounds(node: &mut Node, node_tris: &[u32], tris: &[[Vec3; 3]]) {
 }
 
 /// Two unit vectors `u, w` with `u × w = n`.
-fn plane_basis(n: &Vec3) -> (Vec3, Vec3) {
+pub(crate) fn plane_basis(n: &Vec3) -> (Vec3, Vec3) {
     let helper = if n.x.abs() < 0.6 {
         Vec3::x()
     } else {

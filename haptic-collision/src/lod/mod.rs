@@ -12,10 +12,13 @@
 //! A query places the tool, runs a broad phase (root spheres inflated by `δ`), then walks the
 //! tool's hierarchy against each obstacle's. A node pair is culled when its bounding volumes are
 //! farther apart than `δ`; it stops when `s_a + s_b <= ε`, with `ε = error_threshold ×`
-//! [`LodBackend::tool_bounding_radius_m`], and reports contacts from the two pieces (their exact
-//! closest approach, plus samples at the tool piece's vertices and centroid); otherwise the node
-//! with the larger deviation is split. When the exact surfaces are apart by `D` with
-//! `ε < D < δ − ε`, the reported closest approach is within `ε` of `D`. At `error_threshold = 0` the walk descends to
+//! [`LodBackend::tool_bounding_radius_m`], and reports contacts from the two pieces (a touching
+//! contact where they cross, and samples spread over the tool piece at their distance to the
+//! obstacle piece); otherwise the node with the larger deviation is split. After the walk, the
+//! coarse pairs that could be closer than the nearest contact reported are searched exactly, so
+//! the reported closest approach is the exact one of the stopped pieces: when the exact surfaces
+//! are apart by `D` with `ε < D < δ − ε`, it is within `ε` of `D`. At `error_threshold = 0` the
+//! walk descends to
 //! triangle pairs and the contacts are exact (the same as [`crate::reference::ReferenceBackend`]).
 //!
 //! Contact convention (haptic-core [`Contact`](haptic_core::Contact)): `p_a` on the tool, `p_b` on
@@ -39,7 +42,7 @@ use rayon::prelude::*;
 use haptic_core::{CollisionBackend, ContactSet, CoreError, Pose, QueryParams, QueryStats, Real};
 
 pub use build::Hierarchy;
-use query::{Frames, Walk, collide};
+use query::{Frames, Scratch, Walk, collide};
 
 use crate::mesh::TriMesh;
 
@@ -117,7 +120,7 @@ pub struct BuildStats {
 pub struct LodBackend {
     tool: Hierarchy,
     obstacles: Vec<(Hierarchy, Pose)>,
-    stack: Vec<(u32, u32)>,
+    scratch: Scratch,
     stats: BuildStats,
 }
 
@@ -156,7 +159,7 @@ impl LodBackend {
         );
         // Every pop pushes at most two pairs and each split goes one level down one tree, so the
         // stack never holds more than height_a + height_b + 1 pairs: reserving that up front means
-        // a query never allocates.
+        // the walk never allocates (the list of coarse pairs grows to its largest size once).
         let stack_bound =
             tool.height() + obstacles.iter().map(|(h, _)| h.height()).max().unwrap_or(0) + 2;
         let stats = BuildStats {
@@ -170,7 +173,10 @@ impl LodBackend {
         Ok(Self {
             tool,
             obstacles,
-            stack: Vec::with_capacity(stack_bound),
+            scratch: Scratch {
+                stack: Vec::with_capacity(stack_bound),
+                apart: Vec::new(),
+            },
             stats,
         })
     }
@@ -198,13 +204,14 @@ impl LodBackend {
                 .iter()
                 .map(|(h, _)| h.memory_bytes())
                 .sum::<usize>()
-            + self.stack.capacity() * std::mem::size_of::<(u32, u32)>()
+            + self.scratch.stack.capacity() * std::mem::size_of::<(u32, u32)>()
+            + self.scratch.apart.capacity() * std::mem::size_of::<(Real, u32, u32)>()
     }
 
-    /// Capacity of the traversal stack (it is reused between queries; tests check that it stops
-    /// growing after warm-up).
+    /// Capacity of the query's scratch buffers, in elements (they are reused between queries;
+    /// tests check that they stop growing after warm-up).
     pub fn scratch_capacity(&self) -> usize {
-        self.stack.capacity()
+        self.scratch.stack.capacity() + self.scratch.apart.capacity()
     }
 
     /// The tool's hierarchy.
@@ -274,7 +281,7 @@ impl CollisionBackend for LodBackend {
                 epsilon_m,
                 delta_m: params.delta_m,
             };
-            collide(&self.tool, obs, &walk, &mut self.stack, out, &mut stats)?;
+            collide(&self.tool, obs, &walk, &mut self.scratch, out, &mut stats)?;
         }
         Ok(stats)
     }

@@ -13,12 +13,18 @@
 //!   run three times (times pooled).
 //! - Runs: parry, then LOD at thresholds 0, 0.4 %, 1 %, 2.5 % and 5 % of the tool's bounding
 //!   radius.
-//! - Wrench: contacts → `haptic_cluster::Clusterer` (K = 5, weights `d + δ`, warm start from the
-//!   previous pose of the same run) → `haptic_dynamics::penalty::PenaltyModel` at the
-//!   representatives (`k_c`, no damping: the tool is at rest at each pose), torque about the
-//!   tool origin. Error: per pose,
-//!   `|W − W₀| / |W₀|` with `W = (F, T / r)`, `r` the tool's bounding radius and `W₀` the LOD
-//!   threshold-0 wrench; the median over the poses is reported.
+//! - Wrench: contacts → `haptic_cluster::Clusterer` (K = 5, weights `d + δ`) →
+//!   `haptic_dynamics::penalty::PenaltyModel` at the representatives (`k_c`, no damping: the tool
+//!   is at rest at each pose), torque about the tool origin. Error: per pose, `|W − W₀| / |W₀|`
+//!   with `W = (F, T / r)`, `r` the tool's bounding radius and `W₀` the LOD threshold-0 wrench;
+//!   the median over the poses is reported.
+//! - Clustering: the reference warm-starts from its previous pose, as the runtime does. Every
+//!   other run clusters each pose from the reference's representatives of that pose
+//!   ([`Clusterer::warm_start_from`]), so both land in the same basin of Lloyd's method when the
+//!   contacts allow: the headline error measures the collision back-end, not which local minimum
+//!   a chain of warm starts reached. The error with each run's own chain (`_chained`) and the
+//!   clustering's own variability (the reference's contacts clustered cold against its warm
+//!   chain, `clustering_variability_rel_*`) are reported beside it.
 //! - Output: `DIR/collision.json` and `DIR/collision_work_precision.svg`.
 
 use std::path::Path;
@@ -28,8 +34,8 @@ use anyhow::{Context, bail};
 use haptic_cluster::{ClusterParams, Clusterer};
 use haptic_collision::{LoadOptions, LodBackend, ParryBackend, TriMesh};
 use haptic_core::{
-    CollisionBackend, ContactModel, ContactSet, Kinematics, Pose, QueryParams, Real, RigidBody,
-    ToolState, Vec3,
+    CollisionBackend, Contact, ContactModel, ContactSet, Kinematics, Pose, QueryParams, Real,
+    RigidBody, ToolState, Vec3,
 };
 use haptic_dynamics::penalty::{PenaltyModel, PenaltyParams};
 use nalgebra::UnitQuaternion;
@@ -92,10 +98,7 @@ pub fn run(args: &super::BenchArgs) -> anyhow::Result<()> {
     for &th in &THRESHOLDS {
         if th == 0.0 {
             // The reference itself (its errors are zero by definition).
-            let mut r = reference.clone();
-            r.errors = vec![0.0; r.wrenches.len()];
-            r.force_ratios = vec![1.0; r.wrenches.len()];
-            rows.push(row("lod", th, &r, lod_build_s));
+            rows.push(row("lod", th, &reference, lod_build_s));
         } else {
             let r = run_backend(&mut lod, &scene, th, passes, radius, Some(&reference))?;
             rows.push(row("lod", th, &r, lod_build_s));
@@ -103,7 +106,7 @@ pub fn run(args: &super::BenchArgs) -> anyhow::Result<()> {
     }
     for r in &rows {
         println!(
-            "{:>6} {:>6.1} %: median {:>9.1} µs, p99 {:>9.1} µs, contacts {:>8.1}, node pairs {:>9.0}, wrench error median {:.3} (p90 {:.3}), |F|/|F0| {:.3}",
+            "{:>6} {:>6.1} %: median {:>9.1} µs, p99 {:>9.1} µs, contacts {:>8.1}, node pairs {:>9.0}, wrench error median {:.3} (p90 {:.3}; own chain {:.3}), |F|/|F0| {:.3}",
             r["backend"].as_str().unwrap_or(""),
             r["threshold"].as_f64().unwrap_or(0.0) * 100.0,
             r["median_s"].as_f64().unwrap_or(0.0) * 1e6,
@@ -112,6 +115,7 @@ pub fn run(args: &super::BenchArgs) -> anyhow::Result<()> {
             r["node_pairs_mean"].as_f64().unwrap_or(0.0),
             r["wrench_error_rel_median"].as_f64().unwrap_or(0.0),
             r["wrench_error_rel_p90"].as_f64().unwrap_or(0.0),
+            r["wrench_error_rel_median_chained"].as_f64().unwrap_or(0.0),
             r["force_ratio_median"].as_f64().unwrap_or(0.0),
         );
     }
@@ -127,6 +131,11 @@ pub fn run(args: &super::BenchArgs) -> anyhow::Result<()> {
         _ => Real::NAN,
     };
     println!("LOD at 2.5 % is {speedup:.1}× faster than parry (median query time)");
+    println!(
+        "clustering variability (reference contacts clustered cold vs its warm chain): median {:.3}, p90 {:.3}",
+        quantile(&reference.cold_errors, 0.5),
+        quantile(&reference.cold_errors, 0.9)
+    );
 
     // A far tool costs the broad phase only.
     let far = Pose::from_position(Vec3::new(10.0, 10.0, 10.0));
@@ -146,7 +155,7 @@ pub fn run(args: &super::BenchArgs) -> anyhow::Result<()> {
         "poses": scene.poses.len(),
         "passes": passes,
         "tool_bounding_radius_m": radius,
-        "wrench": "contacts -> haptic_cluster::Clusterer (K = 5, w = d + delta, warm start from the previous pose of the run) -> haptic_dynamics::penalty::PenaltyModel (k_c, b_c = 0, tool at rest), torque about the tool origin; error |W - W0| / |W0| with W = (F, T / r), W0 = LOD at threshold 0",
+        "wrench": "contacts -> haptic_cluster::Clusterer (K = 5, w = d + delta) -> haptic_dynamics::penalty::PenaltyModel (k_c, b_c = 0, tool at rest), torque about the tool origin; error |W - W0| / |W0| with W = (F, T / r), W0 = LOD at threshold 0. The reference warm-starts from its previous pose; the other runs cluster each pose from the reference's representatives of that pose (wrench_error_rel_*), and along their own chain of warm starts (wrench_error_rel_*_chained)",
         "builds": [
             {"backend": "lod", "mesh": "tool", "triangles": bs.tool.triangles, "nodes": bs.tool.nodes, "build_s": bs.tool.build_s},
             {"backend": "lod", "mesh": "obstacle", "triangles": bs.obstacles[0].triangles, "nodes": bs.obstacles[0].nodes, "build_s": bs.obstacles[0].build_s},
@@ -157,6 +166,8 @@ pub fn run(args: &super::BenchArgs) -> anyhow::Result<()> {
         "parry_build_s": parry_build_s,
         "far_tool_query_s": far_s,
         "speedup_lod_2_5_percent_vs_parry": speedup,
+        "clustering_variability_rel_median": quantile(&reference.cold_errors, 0.5),
+        "clustering_variability_rel_p90": quantile(&reference.cold_errors, 0.9),
         "rows": rows,
     });
     common::write_json(&dir.join("collision.json"), &value)?;
@@ -220,36 +231,45 @@ struct RunResult {
     contacts_mean: Real,
     node_pairs_mean: Real,
     wrenches: Vec<[Real; 6]>,
+    /// The representatives of each pose (first pass), which seed the other runs' clustering.
+    representatives: Vec<Vec<Contact>>,
+    /// Error per pose, clustered from the reference's representatives of the same pose.
     errors: Vec<Real>,
+    /// Error per pose, clustered along this run's own chain of warm starts.
+    errors_chained: Vec<Real>,
+    /// Reference run only: per pose, its contacts clustered cold against its warm chain.
+    cold_errors: Vec<Real>,
     /// `|F| / |F₀|` per pose.
     force_ratios: Vec<Real>,
 }
 
+/// The `f`-quantile of `v` (nearest rank), NaN when empty.
+fn quantile(v: &[Real], f: Real) -> Real {
+    let mut v = v.to_vec();
+    v.sort_by(|a, b| a.total_cmp(b));
+    if v.is_empty() {
+        Real::NAN
+    } else {
+        v[((v.len() - 1) as Real * f).round() as usize]
+    }
+}
+
 fn row(backend: &str, threshold: Real, r: &RunResult, build_s: Real) -> serde_json::Value {
-    let mut t = r.times_s.clone();
-    t.sort_by(|a, b| a.total_cmp(b));
-    let mut e = r.errors.clone();
-    e.sort_by(|a, b| a.total_cmp(b));
-    let mut fr = r.force_ratios.clone();
-    fr.sort_by(|a, b| a.total_cmp(b));
-    let q = |v: &[Real], f: Real| {
-        if v.is_empty() {
-            Real::NAN
-        } else {
-            v[((v.len() - 1) as Real * f).round() as usize]
-        }
-    };
+    let (t, e, ec, fr) = (&r.times_s, &r.errors, &r.errors_chained, &r.force_ratios);
+    let q = quantile;
     json!({
         "backend": backend,
         "threshold": threshold,
-        "median_s": q(&t, 0.5),
-        "p99_s": q(&t, 0.99),
+        "median_s": q(t, 0.5),
+        "p99_s": q(t, 0.99),
         "contacts_mean": r.contacts_mean,
         "node_pairs_mean": r.node_pairs_mean,
-        "wrench_error_rel_median": q(&e, 0.5),
-        "wrench_error_rel_p90": q(&e, 0.9),
-        "wrench_error_rel_max": e.last().copied().unwrap_or(Real::NAN),
-        "force_ratio_median": q(&fr, 0.5),
+        "wrench_error_rel_median": q(e, 0.5),
+        "wrench_error_rel_p90": q(e, 0.9),
+        "wrench_error_rel_max": q(e, 1.0),
+        "wrench_error_rel_median_chained": q(ec, 0.5),
+        "wrench_error_rel_p90_chained": q(ec, 0.9),
+        "force_ratio_median": q(fr, 0.5),
         "build_s": build_s,
     })
 }
@@ -270,28 +290,51 @@ where
     let mut out = ContactSet::new();
     let mut times_s = Vec::with_capacity(passes * scene.poses.len());
     let mut wrenches = Vec::with_capacity(scene.poses.len());
-    let mut pipeline = WrenchPipeline::new(scene, radius)?;
+    let mut chained_wrenches = Vec::with_capacity(scene.poses.len());
+    let mut representatives = Vec::with_capacity(scene.poses.len());
+    // Two clusterers: one seeded from the reference's representatives of the same pose (the
+    // headline error), one along this run's own chain of warm starts, as a runtime would run.
+    let mut seeded = WrenchPipeline::new(scene, radius)?;
+    let mut chained = WrenchPipeline::new(scene, radius)?;
     let (mut contacts, mut node_pairs) = (0usize, 0u64);
+    let mut cold_errors = Vec::new();
     for pass in 0..passes {
-        for pose in &scene.poses {
+        for (i, pose) in scene.poses.iter().enumerate() {
             let t = Instant::now();
             let st = backend.query(pose, &params, &mut out)?;
             times_s.push(t.elapsed().as_secs_f64());
-            if pass == 0 {
-                contacts += out.len();
-                node_pairs += st.node_pairs_tested;
-                wrenches.push(pipeline.wrench(&out, pose, scene.delta_m)?);
+            if pass > 0 {
+                continue;
             }
+            contacts += out.len();
+            node_pairs += st.node_pairs_tested;
+            let (w, reps) = chained.wrench(&out, pose, scene.delta_m)?;
+            chained_wrenches.push(w);
+            match reference {
+                Some(r) => {
+                    seeded.clusterer.warm_start_from(&r.representatives[i]);
+                    wrenches.push(seeded.wrench(&out, pose, scene.delta_m)?.0);
+                }
+                None => {
+                    // The reference: its own contacts clustered cold, to measure how far two
+                    // clusterings of the same contacts can differ.
+                    seeded.clusterer.reset();
+                    let cold = seeded.wrench(&out, pose, scene.delta_m)?.0;
+                    cold_errors.extend(relative_error(&cold, &w, radius));
+                    wrenches.push(w);
+                }
+            }
+            representatives.push(reps);
         }
     }
     let n = scene.poses.len().max(1) as Real;
-    let errors = match reference {
-        Some(r) => wrenches
+    let errors_against = |ws: &[[Real; 6]]| match reference {
+        Some(r) => ws
             .iter()
             .zip(&r.wrenches)
             .filter_map(|(w, w0)| relative_error(w, w0, radius))
             .collect(),
-        None => Vec::new(),
+        None => vec![0.0; ws.len()],
     };
     let force = |w: &[Real; 6]| Vec3::new(w[0], w[1], w[2]).norm();
     let force_ratios = match reference {
@@ -301,15 +344,18 @@ where
             .filter(|(_, w0)| force(w0) > 0.0)
             .map(|(w, w0)| force(w) / force(w0))
             .collect(),
-        None => Vec::new(),
+        None => vec![1.0; wrenches.len()],
     };
     Ok(RunResult {
         force_ratios,
         times_s,
         contacts_mean: contacts as Real / n,
         node_pairs_mean: node_pairs as Real / n,
+        errors: errors_against(&wrenches),
+        errors_chained: errors_against(&chained_wrenches),
+        cold_errors,
         wrenches,
-        errors,
+        representatives,
     })
 }
 
@@ -363,7 +409,7 @@ impl WrenchPipeline {
         contacts: &ContactSet,
         pose: &Pose,
         delta: Real,
-    ) -> anyhow::Result<[Real; 6]> {
+    ) -> anyhow::Result<([Real; 6], Vec<Contact>)> {
         self.clusterer
             .cluster(contacts.as_slice(), delta, &mut self.reps)?;
         let y = ToolState::at_rest(pose).to_vector();
@@ -371,9 +417,12 @@ impl WrenchPipeline {
         let w = self
             .model
             .evaluate(&self.body, &y, &kin, self.reps.as_slice(), None)?;
-        Ok([
-            w.force.x, w.force.y, w.force.z, w.torque.x, w.torque.y, w.torque.z,
-        ])
+        Ok((
+            [
+                w.force.x, w.force.y, w.force.z, w.torque.x, w.torque.y, w.torque.z,
+            ],
+            self.reps.as_slice().to_vec(),
+        ))
     }
 }
 
