@@ -131,6 +131,36 @@ pub fn closest_point_on_polygon(p: &Vec3, poly: &[Vec3], n: &Vec3) -> Vec3 {
     best
 }
 
+/// Closest point to the 2-D point `p` on the convex counter-clockwise polygon `poly` (`p` itself
+/// when inside): the 2-D form of [`closest_point_on_polygon`], with the same one-pass search.
+#[inline]
+pub fn closest_point_on_polygon_2d(p: [Real; 2], poly: &[[Real; 2]]) -> [Real; 2] {
+    let m = poly.len();
+    let mut inside = true;
+    let (mut best, mut best_d2) = (p, Real::INFINITY);
+    for (i, a) in poly.iter().enumerate() {
+        let b = &poly[if i + 1 == m { 0 } else { i + 1 }];
+        let (ex, ey) = (b[0] - a[0], b[1] - a[1]);
+        let (px, py) = (p[0] - a[0], p[1] - a[1]);
+        if ex * py - ey * px < 0.0 {
+            inside = false;
+            let len2 = ex * ex + ey * ey;
+            let t = if len2 > 0.0 {
+                ((px * ex + py * ey) / len2).clamp(0.0, 1.0)
+            } else {
+                0.0
+            };
+            let c = [a[0] + t * ex, a[1] + t * ey];
+            let d2 = (p[0] - c[0]).powi(2) + (p[1] - c[1]).powi(2);
+            if d2 < best_d2 {
+                best_d2 = d2;
+                best = c;
+            }
+        }
+    }
+    if inside { p } else { best }
+}
+
 /// Closest point to `p` on the triangle `tri` (any orientation; degenerate triangles are handled
 /// through their edges).
 pub fn closest_point_on_triangle(p: &Vec3, tri: &[Vec3; 3]) -> Vec3 {

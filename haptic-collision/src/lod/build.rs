@@ -17,7 +17,7 @@ use haptic_core::{Real, Vec3};
 use rayon::prelude::*;
 
 use super::MAX_PIECE_VERTICES;
-use crate::geometry::{point_polygon_distance, triangle_normal};
+use crate::geometry::{closest_point_on_polygon_2d, point_polygon_distance, triangle_normal};
 use crate::mesh::TriMesh;
 
 /// Marks "no right child" (a leaf).
@@ -389,31 +389,6 @@ fn reduce_polygon(hull: &mut Vec<[Real; 2]>, max: usize) {
     }
 }
 
-/// Distance from a 2-D point to a convex CCW polygon (0 inside).
-pub(crate) fn dist_to_polygon_2d(p: [Real; 2], poly: &[[Real; 2]]) -> Real {
-    let m = poly.len();
-    let mut inside = true;
-    let mut best2 = Real::INFINITY;
-    for i in 0..m {
-        let a = poly[i];
-        let b = poly[(i + 1) % m];
-        let (ex, ey) = (b[0] - a[0], b[1] - a[1]);
-        let (px, py) = (p[0] - a[0], p[1] - a[1]);
-        if ex * py - ey * px < 0.0 {
-            inside = false;
-        }
-        let len2 = ex * ex + ey * ey;
-        let t = if len2 > 0.0 {
-            ((px * ex + py * ey) / len2).clamp(0.0, 1.0)
-        } else {
-            0.0
-        };
-        let (dx, dy) = (px - t * ex, py - t * ey);
-        best2 = best2.min(dx * dx + dy * dy);
-    }
-    if inside { 0.0 } else { best2.sqrt() }
-}
-
 /// Plane, slab, piece and deviation of an inner node.
 fn fill_piece(
     node: &mut Node,
@@ -491,7 +466,9 @@ fn fill_piece(
     let mut s_out: Real = 0.0;
     for c in &scratch.corners {
         let dh = c[2] - hmid;
-        let d2 = dist_to_polygon_2d([c[0], c[1]], &hull);
+        let p = [c[0], c[1]];
+        let q = closest_point_on_polygon_2d(p, &hull);
+        let d2 = (p[0] - q[0]).hypot(p[1] - q[1]);
         s_out = s_out.max((dh * dh + d2 * d2).sqrt());
     }
     node.deviation = s_out.min(cap);

@@ -4,7 +4,9 @@ use haptic_core::{Contact, ContactSet, Mat3, NO_FEATURE, Pose, QueryStats, Real,
 
 use super::build::{Hierarchy, Node, plane_basis};
 use super::{LodError, MAX_PIECE_VERTICES};
-use crate::geometry::{PairContact, convex_polygon_pair, crossing_witness};
+use crate::geometry::{
+    PairContact, closest_point_on_polygon_2d, convex_polygon_pair, crossing_witness,
+};
 
 /// The rigid map from the tool's body frame to one obstacle's mesh frame, and what is needed to
 /// write contacts in the world frame.
@@ -208,34 +210,9 @@ impl PlanarPiece {
             return None;
         }
         let p = [self.u.dot(&d), self.w.dot(&d)];
-        // As in `closest_point_on_polygon`: inside unless outside some edge, and then the
-        // closest point lies on an edge that `p` is outside of.
-        let verts = &self.verts[..self.len];
-        let mut inside = true;
-        let (mut best, mut best_d2) = (p, Real::INFINITY);
-        for (i, a) in verts.iter().enumerate() {
-            let b = &verts[if i + 1 == self.len { 0 } else { i + 1 }];
-            let (ex, ey) = (b[0] - a[0], b[1] - a[1]);
-            let (px, py) = (p[0] - a[0], p[1] - a[1]);
-            if ex * py - ey * px < 0.0 {
-                inside = false;
-                let len2 = ex * ex + ey * ey;
-                let t = if len2 > 0.0 {
-                    ((px * ex + py * ey) / len2).clamp(0.0, 1.0)
-                } else {
-                    0.0
-                };
-                let c = [a[0] + t * ex, a[1] + t * ey];
-                let d2 = (p[0] - c[0]).powi(2) + (p[1] - c[1]).powi(2);
-                if d2 < best_d2 {
-                    best_d2 = d2;
-                    best = c;
-                }
-            }
-        }
-        let lateral2 = if inside { 0.0 } else { best_d2 };
-        let dist = (lateral2 + h * h).sqrt();
-        (dist <= delta).then(|| (self.origin + self.u * best[0] + self.w * best[1], dist))
+        let c = closest_point_on_polygon_2d(p, &self.verts[..self.len]);
+        let dist = ((p[0] - c[0]).powi(2) + (p[1] - c[1]).powi(2) + h * h).sqrt();
+        (dist <= delta).then(|| (self.origin + self.u * c[0] + self.w * c[1], dist))
     }
 }
 
