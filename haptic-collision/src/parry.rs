@@ -226,22 +226,10 @@ impl ParryBackend {
 }
 
 fn check_params(params: &QueryParams) -> Result<(), ParryError> {
-    params.validate().map_err(|e| match e {
-        haptic_core::CoreError::OutOfRange {
-            what,
-            value,
-            expected,
-        } => ParryError::BadParams {
-            what,
-            value,
-            expected,
-        },
-        // `validate` only reports ranges; keep any other core error's message as a range error.
-        _ => ParryError::BadParams {
-            what: "query parameters",
-            value: Real::NAN,
-            expected: "valid",
-        },
+    crate::check_query_params(params).map_err(|(what, value, expected)| ParryError::BadParams {
+        what,
+        value,
+        expected,
     })
 }
 

@@ -222,22 +222,10 @@ impl LodBackend {
 
 /// Checks the public fields of the query parameters.
 pub(crate) fn check_params(params: &QueryParams) -> Result<(), LodError> {
-    params.validate().map_err(|e| match e {
-        haptic_core::CoreError::OutOfRange {
-            what,
-            value,
-            expected,
-        } => LodError::BadParams {
-            what,
-            value,
-            expected,
-        },
-        // `validate` only reports ranges; keep any other core error's message as a range error.
-        _ => LodError::BadParams {
-            what: "query parameters",
-            value: Real::NAN,
-            expected: "valid",
-        },
+    crate::check_query_params(params).map_err(|(what, value, expected)| LodError::BadParams {
+        what,
+        value,
+        expected,
     })
 }
 
