@@ -4,13 +4,13 @@
 //! name = "spoon in cup"
 //!
 //! [tool]
-//! mesh = "../shared/meshes/newell_teaspoon.stl"   # relative to the scene file
+//! mesh = "../../assets/meshes/newell_teaspoon.stl"   # relative to the scene file
 //! scale_m_per_unit = 1.0
 //! mass_kg = 0.01
 //! pose = { position_m = [0.0, 0.12, 0.0], rotation_axis_angle_rad = [0.0, 0.0, 0.0] }
 //!
 //! [[obstacles]]
-//! mesh = "../shared/meshes/newell_teacup.stl"
+//! mesh = "../../assets/meshes/newell_teacup.stl"
 //!
 //! [coupling]
 //! stiffness_n_per_m = 200.0

@@ -10,9 +10,10 @@ pub fn repo_root() -> PathBuf {
         .unwrap_or_else(|| PathBuf::from("."))
 }
 
-/// The shared meshes, `../shared/meshes` relative to the repository root.
+/// The repository's meshes, `assets/meshes` under the repository root (licences in its
+/// `SOURCES.md`).
 pub fn meshes_dir() -> PathBuf {
-    repo_root().join("..").join("shared").join("meshes")
+    repo_root().join("assets").join("meshes")
 }
 
 /// Writes `value` as pretty JSON to `path`, and says where.
