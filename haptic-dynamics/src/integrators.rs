@@ -217,6 +217,7 @@ mod solve_tests {
             let rhs = StateVector::from_iterator(r.iter().copied());
             let dense = solve_shifted_dense(&jac, h, &rhs);
             let fast = solve_shifted(&jac, h, &rhs);
+            prop_assert_eq!(dense.is_ok(), fast.is_ok(), "dense {:?} against structured {:?}", dense, fast);
             if let (Ok(d), Ok(f)) = (dense, fast) {
                 let err = (d - f).norm();
                 prop_assert!(err <= 1e-9 * d.norm().max(1.0), "{err} vs {}", d.norm());

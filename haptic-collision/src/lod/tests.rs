@@ -140,7 +140,7 @@ fn hierarchy_bounds_and_deviation_are_true_upper_bounds() {
             finite > h.node_count() / 2,
             "most nodes must have a usable piece"
         );
-        // Deviation is a useful figure: leaves exact, fine inner nodes small.
+        // Leaves stand for their own triangle: their deviation is exactly 0.
         assert!(
             h.nodes
                 .iter()

@@ -395,15 +395,11 @@ fn open_inverted_and_bad_density_are_errors() {
     }
 }
 
-/// The shared meshes (if present): the spoon's slits are within the open-mesh tolerance, the
-/// cup's openings are not, the jaws are closed.
+/// The repository's meshes (`assets/meshes`): the spoon's slits are within the open-mesh
+/// tolerance, the cup's openings are not, the jaws are closed.
 #[test]
-fn shared_meshes_mass_properties() {
-    let dir = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../../shared/meshes");
-    if !dir.join("newell_teaspoon.stl").exists() {
-        eprintln!("shared meshes not found; skipping");
-        return;
-    }
+fn repository_meshes_mass_properties() {
+    let dir = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../assets/meshes");
     let d = LoadOptions::default();
     let (spoon, _) = TriMesh::load(dir.join("newell_teaspoon.stl"), &d).unwrap();
     let mp = spoon.mass_properties(1000.0).unwrap();

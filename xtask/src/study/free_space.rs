@@ -759,8 +759,11 @@ mod tests {
         let fresh = read_trajectory(&fresh_path).unwrap();
         assert_eq!(committed.len(), fresh.len());
         for (a, b) in committed.iter().zip(&fresh) {
+            assert_eq!(a.timestamp_s, b.timestamp_s);
             assert!((a.pose.position - b.pose.position).norm() < 1e-12);
             assert!(a.pose.orientation.angle_to(&b.pose.orientation) < 1e-9);
+            assert!((a.twist.linear - b.twist.linear).norm() < 1e-9);
+            assert!((a.twist.angular - b.twist.angular).norm() < 1e-9);
         }
     }
 
