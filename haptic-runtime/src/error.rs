@@ -19,6 +19,16 @@ pub enum RuntimeError {
         /// Telemetry up to the failure.
         summary: Box<Summary>,
     },
+    /// The haptic loop panicked (in the device, the integrator or the contact model): zero force
+    /// was commanded and the run stopped. The telemetry up to the panic is attached; its
+    /// `haptic_thread_panic` holds the same message.
+    #[error("the haptic loop panicked: {message}; zero force was commanded")]
+    HapticPanic {
+        /// The panic's message.
+        message: String,
+        /// Telemetry up to the panic.
+        summary: Box<Summary>,
+    },
     /// A configuration value is out of range.
     #[error("invalid configuration `{field}`: {reason}")]
     Config {
@@ -39,6 +49,15 @@ pub enum RuntimeError {
 }
 
 impl RuntimeError {
+    /// The telemetry of a run that stopped on this error (a device failure or a panic of the
+    /// haptic loop), if it had started.
+    pub fn summary(&self) -> Option<&Summary> {
+        match self {
+            Self::Device { summary, .. } | Self::HapticPanic { summary, .. } => Some(summary),
+            _ => None,
+        }
+    }
+
     /// A configuration error naming its field.
     pub fn config(field: impl Into<String>, reason: impl Into<String>) -> Self {
         Self::Config {

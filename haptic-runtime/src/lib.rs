@@ -43,9 +43,12 @@ pub mod stages;
 pub mod telemetry;
 
 pub use error::RuntimeError;
-pub use pipeline::{ContactLatency, Pipeline, PipelineBuilder, PipelineConfig};
+pub use pipeline::{
+    ContactLatency, Pipeline, PipelineBuilder, PipelineConfig, REALTIME_PRIORITY,
+};
 pub use scene::{Scene, SceneError, SceneParts};
 pub use stages::{
-    ContactStage, ContactUpdate, HapticStage, SafetyConfig, StepOutcome, ToolMessage,
+    ContactStage, ContactUpdate, DeviceFailure, HapticStage, SafetyConfig, StepOutcome,
+    ToolMessage, ZeroForceGuard,
 };
 pub use telemetry::{Snapshot, Summary};

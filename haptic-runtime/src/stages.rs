@@ -472,4 +472,47 @@ impl<I: Integrator, D: Device> HapticStage<I, D> {
     pub fn shutdown(&mut self) {
         let _ = self.send_zero();
     }
+
+    /// The stage behind a guard that commands zero force when it is dropped: hold it for the
+    /// whole life of a haptic loop, so that every way out of the loop (its end, an error, a
+    /// panic of the device, the integrator or the contact model) ends at zero force.
+    pub fn zero_force_guard(&mut self) -> ZeroForceGuard<'_, I, D> {
+        ZeroForceGuard { stage: self }
+    }
+}
+
+/// Commands zero force when dropped, on every exit path, unwinding included
+/// ([`HapticStage::zero_force_guard`]). Derefs to the stage.
+pub struct ZeroForceGuard<'a, I: Integrator, D: Device> {
+    stage: &'a mut HapticStage<I, D>,
+}
+
+impl<I: Integrator, D: Device> std::ops::Deref for ZeroForceGuard<'_, I, D> {
+    type Target = HapticStage<I, D>;
+    fn deref(&self) -> &Self::Target {
+        self.stage
+    }
+}
+
+impl<I: Integrator, D: Device> std::ops::DerefMut for ZeroForceGuard<'_, I, D> {
+    fn deref_mut(&mut self) -> &mut Self::Target {
+        self.stage
+    }
+}
+
+impl<I: Integrator, D: Device> Drop for ZeroForceGuard<'_, I, D> {
+    fn drop(&mut self) {
+        // A device that panics again here must not turn an unwinding panic into an abort.
+        let stage = &mut *self.stage;
+        let _ = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| stage.shutdown()));
+    }
+}
+
+/// The message of a caught panic payload.
+pub(crate) fn panic_message(payload: &(dyn std::any::Any + Send)) -> String {
+    payload
+        .downcast_ref::<&str>()
+        .map(|s| (*s).to_string())
+        .or_else(|| payload.downcast_ref::<String>().cloned())
+        .unwrap_or_else(|| "a panic without a message".into())
 }

@@ -232,8 +232,13 @@ pub struct Summary {
     pub contact_stale_steps: u64,
     /// Whether the contact thread panicked (the haptic thread went on without it).
     pub contact_thread_panicked: bool,
+    /// The message of a panic that ended the haptic loop (zero force was commanded), if any.
+    pub haptic_thread_panic: Option<String>,
     /// What happened to the contact thread or the device, in words; empty when all went well.
     pub incidents: Vec<String>,
-    /// What the OS allowed for thread priority and affinity.
+    /// Whether the OS granted the haptic thread real-time scheduling (`SCHED_FIFO` on Linux);
+    /// always `false` in virtual time and when not requested.
+    pub realtime_scheduling_granted: bool,
+    /// What the OS allowed for thread priority and affinity, in words.
     pub scheduling: String,
 }

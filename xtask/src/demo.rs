@@ -10,7 +10,7 @@ use haptic_core::{CollisionBackend, Integrator};
 use haptic_dynamics::{
     BackwardEuler, ForwardEuler, IntegratorKind, NewtonBackwardEuler, PenaltyModel, Rk4,
 };
-use haptic_runtime::{ContactLatency, PipelineBuilder, Scene, SceneParts, Summary};
+use haptic_runtime::{ContactLatency, PipelineBuilder, RuntimeError, Scene, SceneParts, Summary};
 use indicatif::{ProgressBar, ProgressStyle};
 
 use crate::common::repo_root;
@@ -33,6 +33,12 @@ pub struct DemoArgs {
     /// Step in simulated time instead of real time.
     #[arg(long)]
     pub virtual_time: bool,
+    /// Haptic rate (Hz), instead of the scene's (up to 20,000).
+    #[arg(long)]
+    pub haptic_hz: Option<f64>,
+    /// Do not ask the OS for real-time scheduling and core pinning (to measure without them).
+    #[arg(long)]
+    pub no_realtime_scheduling: bool,
     /// Write the telemetry summary as JSON.
     #[arg(long)]
     pub json: Option<PathBuf>,
@@ -57,7 +63,14 @@ pub fn run(args: &DemoArgs) -> anyhow::Result<()> {
     let path = scene_path(&args.scene);
     let scene = Scene::load(&path).with_context(|| format!("scene {}", path.display()))?;
     let t0 = Instant::now();
-    let parts = scene.assemble()?;
+    let mut parts = scene.assemble()?;
+    if let Some(hz) = args.haptic_hz {
+        parts.config.haptic_rate_hz = hz;
+    }
+    if args.no_realtime_scheduling {
+        parts.config.realtime_scheduling = false;
+    }
+    parts.config.validate().context("--haptic-hz")?;
     println!(
         "scene `{}`: tool {} triangles, {:.1} g; {} obstacle(s), {} triangles",
         scene.name,
@@ -79,14 +92,24 @@ pub fn run(args: &DemoArgs) -> anyhow::Result<()> {
                 t0.elapsed().as_secs_f64(),
                 backend.node_count()
             );
-            with_integrator(kind, backend, &parts, args)?
+            with_integrator(kind, backend, &parts, args)
         }
         "parry" => {
             let backend = haptic_collision::ParryBackend::new(&parts.tool_mesh, &parts.obstacles)?;
             println!("parry meshes built in {:.2} s", t0.elapsed().as_secs_f64());
-            with_integrator(kind, backend, &parts, args)?
+            with_integrator(kind, backend, &parts, args)
         }
         other => bail!("unknown back-end `{other}`: use lod or parry"),
+    };
+    let summary = match summary {
+        Ok(s) => s,
+        Err(e) => {
+            // A run that stopped on a device failure or a panic still has its telemetry.
+            if let Some(s) = e.downcast_ref::<RuntimeError>().and_then(RuntimeError::summary) {
+                print_summary(s);
+            }
+            return Err(e);
+        }
     };
     print_summary(&summary);
     if let Some(json) = &args.json {
@@ -216,8 +239,16 @@ fn print_summary(s: &Summary) {
         "safety        {} NaN/zero-force steps, {} solver failures, {} contact errors",
         s.nan_events, s.solver_failures, s.contact_errors
     );
-    if !s.scheduling.is_empty() {
-        println!("scheduling    {}", s.scheduling);
+    if s.mode == "real-time" {
+        println!(
+            "scheduling    real-time scheduling {}; {}",
+            if s.realtime_scheduling_granted {
+                "granted"
+            } else {
+                "NOT granted"
+            },
+            s.scheduling
+        );
     }
     for i in &s.incidents {
         println!("incident      {i}");
