@@ -43,9 +43,7 @@ pub mod stages;
 pub mod telemetry;
 
 pub use error::RuntimeError;
-pub use pipeline::{
-    ContactLatency, Pipeline, PipelineBuilder, PipelineConfig, REALTIME_PRIORITY,
-};
+pub use pipeline::{ContactLatency, Pipeline, PipelineBuilder, PipelineConfig, REALTIME_PRIORITY};
 pub use scene::{Scene, SceneError, SceneParts};
 pub use stages::{
     ContactStage, ContactUpdate, DeviceFailure, HapticStage, SafetyConfig, StepOutcome,

@@ -141,9 +141,15 @@ fn assert_stopped_at_zero_force<I: Integrator>(
     };
     assert!(message.contains(expected_message), "{message}");
     assert!(err.to_string().contains("zero force"), "{err}");
-    assert_eq!(summary.haptic_thread_panic.as_deref(), Some(message.as_str()));
+    assert_eq!(
+        summary.haptic_thread_panic.as_deref(),
+        Some(message.as_str())
+    );
     assert!(
-        summary.incidents.iter().any(|i| i.contains(expected_message)),
+        summary
+            .incidents
+            .iter()
+            .any(|i| i.contains(expected_message)),
         "{:?}",
         summary.incidents
     );
@@ -219,7 +225,10 @@ fn a_progress_callback_panic_stops_the_run_at_zero_force() {
             }
         })
     }));
-    assert!(caught.is_err(), "the callback's panic must reach the caller");
+    assert!(
+        caught.is_err(),
+        "the callback's panic must reach the caller"
+    );
     assert!(
         started.elapsed().as_secs_f64() < 10.0,
         "the haptic thread ran on after the caller panicked"

@@ -105,7 +105,10 @@ pub fn run(args: &DemoArgs) -> anyhow::Result<()> {
         Ok(s) => s,
         Err(e) => {
             // A run that stopped on a device failure or a panic still has its telemetry.
-            if let Some(s) = e.downcast_ref::<RuntimeError>().and_then(RuntimeError::summary) {
+            if let Some(s) = e
+                .downcast_ref::<RuntimeError>()
+                .and_then(RuntimeError::summary)
+            {
                 print_summary(s);
             }
             return Err(e);

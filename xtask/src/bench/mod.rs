@@ -27,6 +27,8 @@ pub fn run(args: &BenchArgs) -> anyhow::Result<()> {
         Some("collision") => collision::run(args),
         Some("realtime") => realtime::run(args),
         None | Some("all") => perf::run(args),
-        Some(other) => anyhow::bail!("unknown benchmark `{other}`: use `collision`, `realtime` or nothing"),
+        Some(other) => {
+            anyhow::bail!("unknown benchmark `{other}`: use `collision`, `realtime` or nothing")
+        }
     }
 }

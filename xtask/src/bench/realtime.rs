@@ -100,12 +100,18 @@ pub fn run(args: &super::BenchArgs) -> anyhow::Result<()> {
     let scene_path = repo_root().join("xtask/scenes/spoon-cup.toml");
     let scene = Scene::load(&scene_path)?;
     let mut rows = Vec::new();
-    println!(
-        "real-time demo (spoon into cup), {seconds} s per run; load: {cores} `yes` processes"
-    );
+    println!("real-time demo (spoon into cup), {seconds} s per run; load: {cores} `yes` processes");
     println!(
         "{:>7} {:>9} {:>7} {:>5} {:>10} {:>8} {:>9} {:>11} {:>10}",
-        "rate", "rt asked", "granted", "load", "reached Hz", "misses", "miss %", "p99.9 µs", "max µs"
+        "rate",
+        "rt asked",
+        "granted",
+        "load",
+        "reached Hz",
+        "misses",
+        "miss %",
+        "p99.9 µs",
+        "max µs"
     );
     for haptic_hz in [1000.0, 10_000.0] {
         for load_processes in [0, cores] {
