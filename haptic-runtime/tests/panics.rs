@@ -4,35 +4,18 @@
 
 mod common;
 
-use common::BoxOnFloor;
+use common::{BoxOnFloor, HALF_M, pressing_hand};
 use haptic_core::{
     Device, DeviceLimits, DeviceState, ForceModel, IntegrationError, Integrator, Pose, Real,
     RigidBody, ToolState, Vec3, Wrench,
 };
-use haptic_device::{HandDevice, HandParams, ScriptedDevice, Waypoint};
+use haptic_device::HandDevice;
 use haptic_dynamics::{BackwardEuler, PenaltyModel, PenaltyParams};
 use haptic_runtime::{ContactLatency, Pipeline, PipelineBuilder, PipelineConfig, RuntimeError};
 
-const HALF_M: Real = 0.025;
 /// The haptic step at which the faulty part panics: the box is pressed on the floor by then, so
 /// the device is rendering a real force.
 const PANIC_AT_STEP: u64 = 600;
-
-fn limits() -> DeviceLimits {
-    DeviceLimits::new(10.0, 1.0, Vec3::repeat(-0.5), Vec3::repeat(0.5), 1000.0).unwrap()
-}
-
-/// A hand that lowers the box 5 mm into the floor within 0.2 s and holds it there.
-fn pressing_hand() -> HandDevice {
-    let start = Pose::from_position(Vec3::new(0.0, 0.0, HALF_M + 0.01));
-    let press = Pose::from_position(Vec3::new(0.0, 0.0, HALF_M - 0.005));
-    let target = ScriptedDevice::from_waypoints(
-        vec![Waypoint::new(0.0, start), Waypoint::new(0.2, press)],
-        limits(),
-    )
-    .unwrap();
-    HandDevice::new(HandParams::default(), target, limits()).unwrap()
-}
 
 /// Wraps a device: remembers every command it receives, and panics on its `panic_at`-th read.
 struct RecordingDevice<D> {

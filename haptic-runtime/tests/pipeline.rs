@@ -6,10 +6,10 @@ mod common;
 use std::path::PathBuf;
 use std::time::Duration;
 
-use common::{BoxOnFloor, Misbehaving};
+use common::{BoxOnFloor, HALF_M, Misbehaving, limits, pressing_hand};
 use haptic_collision::LodBackend;
-use haptic_core::{DeviceErrorKind, DeviceLimits, Pose, RigidBody, Vec3};
-use haptic_device::{Fault, FaultInjector, HandDevice, HandParams, ScriptedDevice, Waypoint};
+use haptic_core::{DeviceErrorKind, Pose, RigidBody, Vec3};
+use haptic_device::{Fault, FaultInjector, ScriptedDevice};
 use haptic_dynamics::{BackwardEuler, PenaltyModel, PenaltyParams};
 use haptic_runtime::{
     ContactLatency, PipelineBuilder, PipelineConfig, RuntimeError, Scene, Summary,
@@ -80,23 +80,6 @@ fn identical_virtual_runs_give_identical_outputs() {
 
 // --- A 5 cm box (100 g) held by a scripted hand and pressed 5 mm into the floor z = 0. ---
 
-const HALF_M: f64 = 0.025;
-
-fn limits() -> DeviceLimits {
-    DeviceLimits::new(10.0, 1.0, Vec3::repeat(-0.5), Vec3::repeat(0.5), 1000.0).unwrap()
-}
-
-fn pressing_hand() -> HandDevice {
-    let start = Pose::from_position(Vec3::new(0.0, 0.0, HALF_M + 0.01));
-    let press = Pose::from_position(Vec3::new(0.0, 0.0, HALF_M - 0.005));
-    let target = ScriptedDevice::from_waypoints(
-        vec![Waypoint::new(0.0, start), Waypoint::new(0.2, press)],
-        limits(),
-    )
-    .unwrap();
-    HandDevice::new(HandParams::default(), target, limits()).unwrap()
-}
-
 fn box_body() -> RigidBody {
     let i = 0.1 * (2.0 * HALF_M).powi(2) / 6.0;
     RigidBody::from_principal(0.1, [i, i, i]).unwrap()
@@ -163,6 +146,7 @@ fn nan_from_the_device_sends_zero_force_and_is_counted() {
     );
     let mut p = box_pipeline(BoxOnFloor::new(HALF_M), device);
     let mut zero_steps = 0;
+    let mut last_force_n = 0.0;
     let s = p
         .run_virtual(1.0, ContactLatency::FixedRate { rate_hz: 500.0 }, |_, h| {
             let w = h.last_wrench();
@@ -170,13 +154,16 @@ fn nan_from_the_device_sends_zero_force_and_is_counted() {
             if w.force == Vec3::zeros() {
                 zero_steps += 1;
             }
+            last_force_n = w.force.norm();
         })
         .unwrap();
     assert_eq!(s.nan_events, 25);
     assert!(zero_steps >= 25);
     assert!(s.incidents.iter().any(|i| i.contains("NaN")));
-    // After the burst, contact and coupling are back.
-    assert!(p.haptic().last_wrench().force.norm() > 0.1);
+    // After the burst, contact and coupling are back until the last step ...
+    assert!(last_force_n > 0.1, "{last_force_n} N at the last step");
+    // ... and the run, like every run, ends at zero force.
+    assert_eq!(*p.haptic().last_wrench(), haptic_core::Wrench::zero());
 }
 
 #[test]

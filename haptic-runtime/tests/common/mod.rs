@@ -5,8 +5,31 @@
 use std::time::Duration;
 
 use haptic_core::{
-    CollisionBackend, Contact, ContactSet, CoreError, Pose, QueryParams, QueryStats, Real, Vec3,
+    CollisionBackend, Contact, ContactSet, CoreError, DeviceLimits, Pose, QueryParams, QueryStats,
+    Real, Vec3,
 };
+use haptic_device::{HandDevice, HandParams, ScriptedDevice, Waypoint};
+
+/// Half the edge of the test box (m): a 5 cm cube.
+pub const HALF_M: Real = 0.025;
+
+/// Device limits of the tests: 10 N, 1 N m, a 1 m workspace, 1 kHz.
+pub fn limits() -> DeviceLimits {
+    DeviceLimits::new(10.0, 1.0, Vec3::repeat(-0.5), Vec3::repeat(0.5), 1000.0).unwrap()
+}
+
+/// A hand that lowers the box from 1 cm above the floor `z = 0` to 5 mm into it within 0.2 s,
+/// and holds it there.
+pub fn pressing_hand() -> HandDevice {
+    let start = Pose::from_position(Vec3::new(0.0, 0.0, HALF_M + 0.01));
+    let press = Pose::from_position(Vec3::new(0.0, 0.0, HALF_M - 0.005));
+    let target = ScriptedDevice::from_waypoints(
+        vec![Waypoint::new(0.0, start), Waypoint::new(0.2, press)],
+        limits(),
+    )
+    .unwrap();
+    HandDevice::new(HandParams::default(), target, limits()).unwrap()
+}
 
 /// A box tool (its 8 corners are the contact features) over the floor `z = 0`.
 pub struct BoxOnFloor {
