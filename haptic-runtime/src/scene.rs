@@ -424,8 +424,9 @@ mod tests {
 
     #[test]
     fn minimal_scene_takes_defaults_and_resolves_paths() {
-        let s = Scene::from_toml_str(MINIMAL, Path::new("/scenes")).unwrap();
-        assert_eq!(s.tool.mesh, PathBuf::from("/scenes/tool.stl"));
+        let base = Path::new("my").join("scenes");
+        let s = Scene::from_toml_str(MINIMAL, &base).unwrap();
+        assert_eq!(s.tool.mesh, base.join("tool.stl"));
         assert_eq!(s.contact.clusters, 5);
         assert_eq!(s.rates.haptic_hz, 1000.0);
     }

@@ -344,7 +344,8 @@ fn bad_configuration_and_set_up_give_typed_errors() {
 #[test]
 fn a_scene_with_a_missing_mesh_names_the_field() {
     let mut scene = spoon_cup();
-    scene.obstacles[0].mesh = PathBuf::from("/nonexistent/cup.stl");
+    let nowhere = std::env::temp_dir().join("haptic-no-such-folder");
+    scene.obstacles[0].mesh = nowhere.join("cup.stl");
     match scene.assemble() {
         Err(haptic_runtime::SceneError::Invalid { field, .. }) => {
             assert_eq!(field, "obstacles[0].mesh")
@@ -352,7 +353,7 @@ fn a_scene_with_a_missing_mesh_names_the_field() {
         other => panic!("unexpected {other:?}"),
     }
     let mut scene = spoon_cup();
-    scene.tool.mesh = PathBuf::from("/nonexistent/spoon.stl");
+    scene.tool.mesh = nowhere.join("spoon.stl");
     assert!(matches!(
         scene.assemble(),
         Err(haptic_runtime::SceneError::Invalid { field, .. }) if field == "tool.mesh"
