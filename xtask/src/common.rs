@@ -3,8 +3,16 @@
 use std::path::{Path, PathBuf};
 
 /// The workspace root (the directory holding the top-level `Cargo.toml`).
+///
+/// Taken from the `CARGO_MANIFEST_DIR` that `cargo run` (and so `cargo xtask`) sets when the
+/// command runs, and only failing that from the one it was compiled with: two checkouts that
+/// share a target directory share the one `target/release/xtask`, which must serve the checkout
+/// it is run from.
 pub fn repo_root() -> PathBuf {
-    Path::new(env!("CARGO_MANIFEST_DIR"))
+    let manifest_dir = std::env::var_os("CARGO_MANIFEST_DIR")
+        .map(PathBuf::from)
+        .unwrap_or_else(|| PathBuf::from(env!("CARGO_MANIFEST_DIR")));
+    manifest_dir
         .parent()
         .map(Path::to_path_buf)
         .unwrap_or_else(|| PathBuf::from("."))
