@@ -4,7 +4,7 @@
 
 mod common;
 
-use common::{BoxOnFloor, HALF_M, pressing_hand};
+use common::{BoxOnFloor, HALF_M, box_body, pressing_hand};
 use haptic_core::{
     Device, DeviceLimits, DeviceState, ForceModel, IntegrationError, Integrator, Pose, Real,
     RigidBody, ToolState, Vec3, Wrench,
@@ -93,9 +93,8 @@ fn pipeline<I: Integrator>(
     integrator: I,
     device: RecordingDevice<HandDevice>,
 ) -> Pipeline<I, BoxOnFloor, PenaltyModel, RecordingDevice<HandDevice>> {
-    let i = 0.1 * (2.0 * HALF_M).powi(2) / 6.0;
     PipelineBuilder::new(
-        RigidBody::from_principal(0.1, [i, i, i]).unwrap(),
+        box_body(),
         Pose::from_position(Vec3::new(0.0, 0.0, HALF_M + 0.01)),
     )
     .integrator(integrator)

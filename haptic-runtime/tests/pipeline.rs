@@ -6,7 +6,7 @@ mod common;
 use std::path::PathBuf;
 use std::time::Duration;
 
-use common::{BoxOnFloor, HALF_M, Misbehaving, limits, pressing_hand};
+use common::{BoxOnFloor, HALF_M, Misbehaving, box_body, limits, pressing_hand};
 use haptic_collision::LodBackend;
 use haptic_core::{DeviceErrorKind, Pose, RigidBody, Vec3};
 use haptic_device::{Fault, FaultInjector, ScriptedDevice};
@@ -79,11 +79,6 @@ fn identical_virtual_runs_give_identical_outputs() {
 }
 
 // --- A 5 cm box (100 g) held by a scripted hand and pressed 5 mm into the floor z = 0. ---
-
-fn box_body() -> RigidBody {
-    let i = 0.1 * (2.0 * HALF_M).powi(2) / 6.0;
-    RigidBody::from_principal(0.1, [i, i, i]).unwrap()
-}
 
 fn box_pipeline<B: haptic_core::CollisionBackend, D: haptic_core::Device>(
     backend: B,

@@ -6,12 +6,18 @@ use std::time::Duration;
 
 use haptic_core::{
     CollisionBackend, Contact, ContactSet, CoreError, DeviceLimits, Pose, QueryParams, QueryStats,
-    Real, Vec3,
+    Real, RigidBody, Vec3,
 };
 use haptic_device::{HandDevice, HandParams, ScriptedDevice, Waypoint};
 
 /// Half the edge of the test box (m): a 5 cm cube.
 pub const HALF_M: Real = 0.025;
+
+/// The 100 g test box, a uniform cube of edge `2 HALF_M`.
+pub fn box_body() -> RigidBody {
+    let i = 0.1 * (2.0 * HALF_M).powi(2) / 6.0;
+    RigidBody::from_principal(0.1, [i, i, i]).unwrap()
+}
 
 /// Device limits of the tests: 10 N, 1 N m, a 1 m workspace, 1 kHz.
 pub fn limits() -> DeviceLimits {
