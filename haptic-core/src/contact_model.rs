@@ -3,8 +3,19 @@
 use crate::body::RigidBody;
 use crate::contact::Contact;
 use crate::error::ContactModelError;
-use crate::math::{Real, StateVector, WrenchJacobian};
+use crate::math::{Real, StateVector, Vec3, WrenchJacobian, WrenchVector};
 use crate::state::{Kinematics, ToolState, Wrench};
+use nalgebra::RowSVector;
+
+/// The most contacts (cluster representatives) one [`LinearizedContact`] holds.
+///
+/// The linearized model keeps one tangent per representative so that each can be bounded on
+/// its own; a fixed capacity keeps the model a plain `Copy` value that the contact thread hands
+/// to the haptic thread without allocating. Clustering gives far fewer (the paper uses `K ≤ 5`).
+pub const MAX_REPRESENTATIVES: usize = 16;
+
+/// The release band `ε` of a [`ContactTangent`] as a fraction of its reach `k_n δ`.
+pub const RELEASE_BAND_FRACTION: Real = 0.5;
 
 /// Contacts (or cluster representatives) to a wrench on the tool and its Jacobian.
 ///
@@ -17,9 +28,48 @@ use crate::state::{Kinematics, ToolState, Wrench};
 ///   frame, as for [`crate::ForceModel`].
 /// - Contacts are fixed within one call: their `r_a` (body frame), `p_b`, `n` are constants and
 ///   the wrench varies with `y` through `p_a = x + R(q) r_a` and the tool's velocity.
+/// - Each contact pushes the tool along `−n` (its normal force `λ = −n·F ≥ 0`) and contacts add
+///   up: the wrench of a slice is the sum of the wrenches of its elements. The default
+///   [`ContactModel::linearize`] relies on this to linearize each contact on its own.
 /// - When `jacobian` is `Some`, write the full 6×13 derivative `∂(F, T)/∂y` of exactly the wrench
 ///   you return; when `None`, do not compute it.
 /// - Validate the contacts: a NaN field or a non-unit normal is an error, not a NaN force.
+///
+/// ```
+/// use haptic_core::{
+///     Contact, ContactModel, ContactModelError, Kinematics, Real, RigidBody, StateVector, Wrench,
+///     WrenchJacobian,
+/// };
+///
+/// /// A constant push of 1 N along −n per contact (no Jacobian: it does not depend on `y`).
+/// struct UnitPush;
+///
+/// impl ContactModel for UnitPush {
+///     fn evaluate(
+///         &mut self,
+///         _: &RigidBody,
+///         _: &StateVector,
+///         kin: &Kinematics,
+///         contacts: &[Contact],
+///         jacobian: Option<&mut WrenchJacobian>,
+///     ) -> Result<Wrench, ContactModelError> {
+///         if let Some(j) = jacobian {
+///             j.fill(0.0);
+///         }
+///         let mut w = Wrench::zero();
+///         for c in contacts {
+///             let f = -c.n;
+///             w.force += f;
+///             w.torque += (kin.r * c.r_a).cross(&f);
+///         }
+///         Ok(w)
+///     }
+///
+///     fn extrapolation_reach_m(&self) -> Real {
+///         1e-3
+///     }
+/// }
+/// ```
 pub trait ContactModel {
     /// The contact wrench at state `y` (with its kinematics `kin`), and optionally its Jacobian.
     ///
@@ -34,10 +84,19 @@ pub trait ContactModel {
         jacobian: Option<&mut WrenchJacobian>,
     ) -> Result<Wrench, ContactModelError>;
 
-    /// Linearizes the model at `state` (paper eq. 42) into `out`, for the haptic thread.
+    /// How much deeper (m) than at `y₀` a contact may be pressed before its linearization stops
+    /// growing: the collision query's distance tolerance `δ`, within which the contacts
+    /// reported at `y₀` are the ones the geometry has (see [`ContactTangent::lambda_max_n`]).
+    fn extrapolation_reach_m(&self) -> Real;
+
+    /// Linearizes the model at `state` (paper eq. 42) into `out`, for the haptic thread: one
+    /// [`ContactTangent`] per contact that pushes at `y₀` (contacts that give no force are
+    /// dropped: their tangent is zero).
     ///
     /// # Errors
-    /// As [`ContactModel::evaluate`], and [`ContactModelError::NonFiniteState`] for a NaN state.
+    /// As [`ContactModel::evaluate`]; [`ContactModelError::NonFiniteState`] for a NaN state;
+    /// [`ContactModelError::TooManyContacts`] for more than [`MAX_REPRESENTATIVES`] contacts
+    /// (cluster them first).
     fn linearize(
         &mut self,
         body: &RigidBody,
@@ -45,21 +104,30 @@ pub trait ContactModel {
         contacts: &[Contact],
         out: &mut LinearizedContact,
     ) -> Result<(), ContactModelError> {
+        if contacts.len() > MAX_REPRESENTATIVES {
+            return Err(ContactModelError::TooManyContacts {
+                count: contacts.len(),
+                max: MAX_REPRESENTATIVES,
+            });
+        }
         let y = state.to_vector();
         if y.iter().any(|v| !v.is_finite()) {
             return Err(ContactModelError::NonFiniteState);
         }
+        let reach_m = self.extrapolation_reach_m().max(0.0);
         let kin = Kinematics::new(body, &y);
-        let mut jac = WrenchJacobian::zeros();
-        let w = self.evaluate(body, &y, &kin, contacts, Some(&mut jac))?;
+        *out = LinearizedContact::none();
         out.y0 = y;
-        out.wrench0 = w;
-        out.jacobian = jac;
-        out.contacts = contacts.len();
-        out.max_depth_m = contacts
-            .iter()
-            .map(|c| c.depth_m)
-            .fold(Real::NEG_INFINITY, Real::max);
+        for (index, c) in contacts.iter().enumerate() {
+            let mut jacobian = WrenchJacobian::zeros();
+            let w = self
+                .evaluate(body, &y, &kin, std::slice::from_ref(c), Some(&mut jacobian))
+                .map_err(|e| e.at_index(index))?;
+            out.max_depth_m = out.max_depth_m.max(c.depth_m);
+            if let Some(t) = ContactTangent::new(c.n, w, jacobian, reach_m) {
+                out.push(t)?;
+            }
+        }
         Ok(())
     }
 }
@@ -75,6 +143,10 @@ impl<M: ContactModel + ?Sized> ContactModel for &mut M {
     ) -> Result<Wrench, ContactModelError> {
         (**self).evaluate(body, y, kin, contacts, jacobian)
     }
+
+    fn extrapolation_reach_m(&self) -> Real {
+        (**self).extrapolation_reach_m()
+    }
 }
 
 impl<M: ContactModel + ?Sized> ContactModel for Box<M> {
@@ -88,35 +160,159 @@ impl<M: ContactModel + ?Sized> ContactModel for Box<M> {
     ) -> Result<Wrench, ContactModelError> {
         (**self).evaluate(body, y, kin, contacts, jacobian)
     }
+
+    fn extrapolation_reach_m(&self) -> Real {
+        (**self).extrapolation_reach_m()
+    }
 }
 
 /// How the haptic thread uses a [`LinearizedContact`] between contact updates.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
 pub enum LinearizationMode {
-    /// `F(y) ≈ F(y₀) + ∂F/∂y (y − y₀)`, and the Jacobian enters the implicit solve (the paper's
-    /// method).
+    /// Each contact's wrench `W_k(y₀) + ∂W_k/∂y (y − y₀)`, bounded (see [`ContactTangent`]), and
+    /// its Jacobian enters the implicit solve (the paper's method, eq. 42).
     #[default]
     Linearized,
     /// `F(y) = F(y₀)` held constant, no Jacobian: the paper's ablation.
     Constant,
 }
 
+/// One contact's wrench linearized about `y₀` (eq. 42), with the bounds that keep a stale
+/// tangent from doing what no penalty contact does.
+///
+/// Along the tangent the contact's normal force is `λ(y) = λ₀ + ∂λ/∂y (y − y₀)`, with
+/// `λ = −n·F`. The haptic thread may evaluate the tangent tens of milliseconds after `y₀`, far
+/// from where it is valid, so ([`ContactTangent::wrench_at`]):
+/// - **it never pulls**: where `λ(y) ≤ 0` the surfaces have separated and the contact gives
+///   nothing (the penalty model's own switch-off, eq. 33). The switch-off is made smooth: over
+///   the release band `0 < λ < ε` the tangent wrench is multiplied by the smoothstep
+///   `σ = t²(3 − 2t)`, `t = λ/ε`, so that the wrench and its Jacobian are continuous. A hard
+///   switch-off made the full-Newton integrator cycle between its two sides (a third of the
+///   stiff, slow-update stress runs failed to converge); `ε = ½ k_n δ`
+///   ([`RELEASE_BAND_FRACTION`]), which also softens the onset of a contact that touches at
+///   `y₀` with less than `ε`;
+/// - **it never grows beyond its reach**: `λ(y)` is at most `λ_max = λ₀ + k_n δ`, what the
+///   contact gives pressed `δ` deeper than at `y₀` (`k_n = ∂λ/∂x · n` its normal stiffness, `δ`
+///   [`ContactModel::extrapolation_reach_m`]); beyond that the tangent wrench is scaled down to
+///   it. Deeper than `δ` the query at `y₀` did not look, so nothing is known there.
+///
+/// Both bounds are continuous in `y` (the wrench goes to zero, or to the cap, without a jump),
+/// and the Jacobian returned is exactly that of the bounded wrench.
+///
+/// Decided in `docs/decisions.md` ("Bounded linearized contacts"), with the stress runs that
+/// chose the band.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct ContactTangent {
+    /// The contact normal (unit, out of the tool).
+    pub n: Vec3,
+    /// The contact's wrench at `y₀`, `(F, T)` (N, N m).
+    pub wrench0: WrenchVector,
+    /// Its Jacobian `∂(F, T)/∂y` at `y₀` (6×13).
+    pub jacobian: WrenchJacobian,
+    /// Its normal force `λ₀ = −n·F(y₀) > 0` (N).
+    pub lambda0_n: Real,
+    /// `∂λ/∂y = −nᵀ ∂F/∂y` at `y₀` (1×13).
+    pub dlambda_dy: RowSVector<Real, 13>,
+    /// The largest normal force the tangent may give (N): `λ₀ + k_n δ`.
+    pub lambda_max_n: Real,
+    /// Width `ε` of the release band (N): below `λ = ε` the tangent wrench is faded out smoothly
+    /// (see [`ContactTangent`]); `ε = ½ k_n δ`.
+    pub release_band_n: Real,
+}
+
+impl ContactTangent {
+    /// No contact.
+    pub fn none() -> Self {
+        Self {
+            n: Vec3::z(),
+            wrench0: WrenchVector::zeros(),
+            jacobian: WrenchJacobian::zeros(),
+            lambda0_n: 0.0,
+            dlambda_dy: RowSVector::zeros(),
+            lambda_max_n: 0.0,
+            release_band_n: 0.0,
+        }
+    }
+
+    /// The tangent of a contact with normal `n`, wrench `w` and Jacobian `jacobian` at `y₀`,
+    /// extrapolated at most `reach_m` deeper; `None` when the contact does not push at `y₀`
+    /// (`λ₀ ≤ 0`), whose tangent is zero.
+    pub fn new(n: Vec3, w: Wrench, jacobian: WrenchJacobian, reach_m: Real) -> Option<Self> {
+        let lambda0_n = -n.dot(&w.force);
+        if lambda0_n.is_nan() || lambda0_n <= 0.0 {
+            return None;
+        }
+        let jf = jacobian.fixed_rows::<3>(0);
+        let dlambda_dy: RowSVector<Real, 13> = -(n.transpose() * jf);
+        // eq. 34 for a penalty contact: ∂λ/∂x = k_c nᵀ, so k_n = k_c.
+        let k_n = (dlambda_dy.fixed_columns::<3>(0) * n)[0].max(0.0);
+        Some(Self {
+            n,
+            wrench0: w.to_vector(),
+            jacobian,
+            lambda0_n,
+            dlambda_dy,
+            lambda_max_n: lambda0_n + k_n * reach_m,
+            release_band_n: RELEASE_BAND_FRACTION * k_n * reach_m,
+        })
+    }
+
+    /// The bounded tangent wrench at `dy = y − y₀` and, when `jacobian` is `Some`, its Jacobian
+    /// added into it.
+    #[inline]
+    pub fn wrench_at(
+        &self,
+        dy: &StateVector,
+        jacobian: Option<&mut WrenchJacobian>,
+    ) -> WrenchVector {
+        let lambda = self.lambda0_n + (self.dlambda_dy * dy)[0];
+        if lambda <= 0.0 {
+            return WrenchVector::zeros(); // separated: it never pulls
+        }
+        let w = self.wrench0 + self.jacobian * dy;
+        let band = self.release_band_n;
+        if lambda < band {
+            let t = lambda / band;
+            let sigma = t * t * (3.0 - 2.0 * t);
+            if let Some(j) = jacobian {
+                *j += self.jacobian * sigma + (w * (6.0 * t * (1.0 - t) / band)) * self.dlambda_dy;
+            }
+            return w * sigma;
+        }
+        if lambda <= self.lambda_max_n {
+            if let Some(j) = jacobian {
+                *j += self.jacobian;
+            }
+            return w;
+        }
+        // Capped: s(y) w(y) with s = λ_max / λ(y), ∂s/∂y = −(s/λ) ∂λ/∂y.
+        let s = self.lambda_max_n / lambda;
+        if let Some(j) = jacobian {
+            *j += self.jacobian * s - (w * (s / lambda)) * self.dlambda_dy;
+        }
+        w * s
+    }
+}
+
 /// A contact wrench linearized about `y₀` (paper eq. 42): what the contact thread publishes.
 ///
-/// A plain `Copy` value of fixed size, so it can be exchanged through a lock-free single-slot
-/// buffer and evaluated in constant time, whatever the number of triangles or raw contacts.
+/// One bounded [`ContactTangent`] per contact (cluster representative): the haptic thread sums
+/// them in constant time, whatever the number of triangles or raw contacts. A plain `Copy` value
+/// of fixed size, so it can be exchanged through a lock-free single-slot buffer.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct LinearizedContact {
     /// The tool state the contacts were computed at.
     pub y0: StateVector,
-    /// `(F(y₀), T(y₀))`.
+    /// `(F(y₀), T(y₀))`, the sum over the contacts.
     pub wrench0: Wrench,
-    /// `∂(F, T)/∂y` at `y₀` (6×13).
-    pub jacobian: WrenchJacobian,
-    /// Number of contacts (representatives) the wrench came from; 0 means no contact.
+    /// The tangents; the first [`LinearizedContact::contacts`] are in use.
+    pub tangents: [ContactTangent; MAX_REPRESENTATIVES],
+    /// Number of contacts (representatives) pushing at `y₀`; 0 means no contact.
     pub contacts: usize,
-    /// Largest depth among those contacts (m); `-inf` when there is none.
+    /// Largest depth among the contacts linearized (m); `-inf` when there is none.
     pub max_depth_m: Real,
+    /// Factor on every wrench and Jacobian (1 unless faded, see [`LinearizedContact::scaled`]).
+    pub scale: Real,
 }
 
 impl Default for LinearizedContact {
@@ -131,9 +327,10 @@ impl LinearizedContact {
         Self {
             y0: StateVector::zeros(),
             wrench0: Wrench::zero(),
-            jacobian: WrenchJacobian::zeros(),
+            tangents: [ContactTangent::none(); MAX_REPRESENTATIVES],
             contacts: 0,
             max_depth_m: Real::NEG_INFINITY,
+            scale: 1.0,
         }
     }
 
@@ -143,22 +340,34 @@ impl LinearizedContact {
         self.contacts == 0
     }
 
+    /// The tangents in use.
+    #[inline]
+    pub fn tangents(&self) -> &[ContactTangent] {
+        &self.tangents[..self.contacts.min(MAX_REPRESENTATIVES)]
+    }
+
+    /// Adds a tangent (and its wrench to `wrench0`).
+    ///
+    /// # Errors
+    /// [`ContactModelError::TooManyContacts`] when [`MAX_REPRESENTATIVES`] are in use already.
+    pub fn push(&mut self, tangent: ContactTangent) -> Result<(), ContactModelError> {
+        if self.contacts >= MAX_REPRESENTATIVES {
+            return Err(ContactModelError::TooManyContacts {
+                count: self.contacts + 1,
+                max: MAX_REPRESENTATIVES,
+            });
+        }
+        self.wrench0.force += tangent.wrench0.fixed_rows::<3>(0);
+        self.wrench0.torque += tangent.wrench0.fixed_rows::<3>(3);
+        self.tangents[self.contacts] = tangent;
+        self.contacts += 1;
+        Ok(())
+    }
+
     /// The wrench at `y` (constant time).
     #[inline]
     pub fn wrench_at(&self, y: &StateVector, mode: LinearizationMode) -> Wrench {
-        match mode {
-            LinearizationMode::Constant => self.wrench0,
-            LinearizationMode::Linearized => {
-                if self.contacts == 0 {
-                    return Wrench::zero();
-                }
-                let dw = self.jacobian * (y - self.y0);
-                Wrench::new(
-                    self.wrench0.force + dw.fixed_rows::<3>(0),
-                    self.wrench0.torque + dw.fixed_rows::<3>(3),
-                )
-            }
-        }
+        self.evaluate(y, mode, None)
     }
 
     /// The wrench at `y` and, in [`LinearizationMode::Linearized`], its Jacobian added into
@@ -170,19 +379,148 @@ impl LinearizedContact {
         mode: LinearizationMode,
         jacobian: &mut WrenchJacobian,
     ) -> Wrench {
-        if mode == LinearizationMode::Linearized && self.contacts > 0 {
-            *jacobian += self.jacobian;
-        }
-        self.wrench_at(y, mode)
+        self.evaluate(y, mode, Some(jacobian))
     }
 
-    /// The same model with every wrench and Jacobian entry scaled by `s` (used to fade contact
-    /// forces out when the contact thread stalls).
+    fn evaluate(
+        &self,
+        y: &StateVector,
+        mode: LinearizationMode,
+        jacobian: Option<&mut WrenchJacobian>,
+    ) -> Wrench {
+        if self.contacts == 0 {
+            return Wrench::zero();
+        }
+        match mode {
+            LinearizationMode::Constant => Wrench::new(
+                self.wrench0.force * self.scale,
+                self.wrench0.torque * self.scale,
+            ),
+            LinearizationMode::Linearized => {
+                let dy = y - self.y0;
+                let mut sum = WrenchVector::zeros();
+                match jacobian {
+                    None => {
+                        for t in self.tangents() {
+                            sum += t.wrench_at(&dy, None);
+                        }
+                    }
+                    Some(j) => {
+                        let mut jac = WrenchJacobian::zeros();
+                        for t in self.tangents() {
+                            sum += t.wrench_at(&dy, Some(&mut jac));
+                        }
+                        *j += jac * self.scale;
+                    }
+                }
+                sum *= self.scale;
+                Wrench::new(sum.fixed_rows::<3>(0).into(), sum.fixed_rows::<3>(3).into())
+            }
+        }
+    }
+
+    /// The same model with every wrench and Jacobian scaled by `s` (used to fade contact forces
+    /// out when the contact thread stalls).
     pub fn scaled(&self, s: Real) -> Self {
         let mut out = *self;
-        out.wrench0.force *= s;
-        out.wrench0.torque *= s;
-        out.jacobian *= s;
+        out.scale *= s;
         out
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A contact pushing up (`n = −z`) with stiffness 1000 N/m in z and 0.5 N at `y₀`.
+    fn floor(reach_m: Real) -> ContactTangent {
+        let mut j = WrenchJacobian::zeros();
+        j[(2, 2)] = -1000.0;
+        j[(3, 1)] = 7.0; // some torque coupling
+        let w = Wrench::new(Vec3::new(0.0, 0.0, 0.5), Vec3::new(0.01, 0.0, 0.0));
+        ContactTangent::new(-Vec3::z(), w, j, reach_m).unwrap()
+    }
+
+    #[test]
+    fn tangent_never_pulls_and_is_capped_at_its_reach() {
+        let t = floor(1e-3);
+        assert_eq!(t.lambda0_n, 0.5);
+        assert!((t.lambda_max_n - 1.5).abs() < 1e-12, "{}", t.lambda_max_n);
+        let at = |z: Real| {
+            let mut dy = StateVector::zeros();
+            dy[2] = z;
+            t.wrench_at(&dy, None)
+        };
+        // Within: the tangent.
+        assert!((at(-0.2e-3)[2] - 0.7).abs() < 1e-12);
+        // In the release band (λ = 0.3 N < ε = 0.5 N): faded by the smoothstep.
+        let t: Real = 0.3 / 0.5;
+        assert!((at(0.2e-3)[2] - 0.3 * t * t * (3.0 - 2.0 * t)).abs() < 1e-12);
+        // Lifted 0.5 mm: the force has gone to zero; lifted more: still zero, never pulling.
+        assert!(at(0.5e-3)[2].abs() < 1e-12);
+        assert_eq!(at(2e-3), WrenchVector::zeros());
+        // Pressed 5 mm deeper: capped at λ₀ + k δ = 1.5 N.
+        assert!((at(-5e-3)[2] - 1.5).abs() < 1e-12);
+    }
+
+    #[test]
+    fn no_tangent_for_a_contact_that_does_not_push() {
+        let w = Wrench::new(Vec3::new(0.0, 0.0, -0.5), Vec3::zeros());
+        assert!(ContactTangent::new(-Vec3::z(), w, WrenchJacobian::zeros(), 1e-3).is_none());
+        assert!(
+            ContactTangent::new(-Vec3::z(), Wrench::zero(), WrenchJacobian::zeros(), 1e-3)
+                .is_none()
+        );
+    }
+
+    #[test]
+    fn bounded_jacobian_matches_finite_differences() {
+        let t = floor(1e-3);
+        let mut dir = StateVector::zeros();
+        for k in 0..13 {
+            dir[k] = ((k as Real + 1.0) * 0.37).sin();
+        }
+        // Points in the release band, within, capped and beyond the cap (away from the kinks).
+        for z in [0.2e-3, 0.45e-3, -0.3e-3, -3e-3, -8e-3] {
+            let mut dy = StateVector::zeros();
+            dy[2] = z;
+            let mut j = WrenchJacobian::zeros();
+            t.wrench_at(&dy, Some(&mut j));
+            for k in 0..13 {
+                let mut e = StateVector::zeros();
+                e[k] = 1e-7;
+                let fd = (t.wrench_at(&(dy + e), None) - t.wrench_at(&(dy - e), None)) / 2e-7;
+                let col = j.column(k);
+                assert!(
+                    (fd - col).norm() <= 1e-5 * (1.0 + col.norm()),
+                    "z {z} column {k}: {fd} vs {col}"
+                );
+            }
+        }
+    }
+
+    #[test]
+    fn push_is_bounded_and_scaled_fades() {
+        let mut lin = LinearizedContact::none();
+        for _ in 0..MAX_REPRESENTATIVES {
+            lin.push(floor(1e-3)).unwrap();
+        }
+        assert!(matches!(
+            lin.push(floor(1e-3)),
+            Err(ContactModelError::TooManyContacts {
+                max: MAX_REPRESENTATIVES,
+                ..
+            })
+        ));
+        let y = StateVector::zeros();
+        let full = lin.wrench_at(&y, LinearizationMode::Linearized);
+        assert!((full.force.z - 0.5 * MAX_REPRESENTATIVES as Real).abs() < 1e-12);
+        let half = lin.scaled(0.5);
+        let mut j = WrenchJacobian::zeros();
+        let w = half.add_wrench_and_jacobian(&y, LinearizationMode::Linearized, &mut j);
+        assert!((w.force.z - full.force.z / 2.0).abs() < 1e-12);
+        assert!((j[(2, 2)] + 500.0 * MAX_REPRESENTATIVES as Real).abs() < 1e-9);
+        let c = half.wrench_at(&y, LinearizationMode::Constant);
+        assert!((c.force.z - full.force.z / 2.0).abs() < 1e-12);
     }
 }

@@ -129,6 +129,26 @@ pub enum ContactModelError {
     /// A parameter was outside its admissible range.
     #[error(transparent)]
     Parameter(#[from] CoreError),
+    /// More contacts than a [`crate::LinearizedContact`] holds.
+    #[error("{count} contacts to linearize, at most {max}: cluster them first")]
+    TooManyContacts {
+        /// Contacts given.
+        count: usize,
+        /// [`crate::MAX_REPRESENTATIVES`].
+        max: usize,
+    },
+}
+
+impl ContactModelError {
+    /// The same error about the contact at `index` of a longer slice (for an error found in a
+    /// one-contact slice).
+    pub fn at_index(self, index: usize) -> Self {
+        match self {
+            Self::NonFiniteContact { what, .. } => Self::NonFiniteContact { index, what },
+            Self::BadNormal { norm, .. } => Self::BadNormal { index, norm },
+            other => other,
+        }
+    }
 }
 
 /// What went wrong with a device, independent of the device's own error type.

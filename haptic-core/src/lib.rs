@@ -117,7 +117,9 @@ pub mod state;
 pub use body::RigidBody;
 pub use collision::{CollisionBackend, QueryParams, QueryStats};
 pub use contact::{Contact, ContactSet, NO_FEATURE};
-pub use contact_model::{ContactModel, LinearizationMode, LinearizedContact};
+pub use contact_model::{
+    ContactModel, ContactTangent, LinearizationMode, LinearizedContact, MAX_REPRESENTATIVES,
+};
 pub use device::{Device, DeviceLimits};
 pub use error::{
     ContactModelError, CoreError, DeviceError, DeviceErrorKind, DeviceFault, IntegrationError,

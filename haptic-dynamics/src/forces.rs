@@ -127,7 +127,7 @@ impl ForceModel for HapticForces {
 mod tests {
     use super::*;
     use crate::coupling::CouplingParams;
-    use haptic_core::{DeviceState, Pose, ToolState};
+    use haptic_core::{ContactTangent, DeviceState, Pose, ToolState};
 
     fn setup() -> (RigidBody, ToolState, HapticForces) {
         let body = RigidBody::from_principal(0.02, [1e-6, 2e-6, 2.5e-6]).unwrap();
@@ -146,13 +146,16 @@ mod tests {
         let mut j0 = WrenchJacobian::zeros();
         let w0 = forces.wrench_and_jacobian(&body, 0.0, &y, &kin, &mut j0);
         assert!(w0.force.norm() < 1e-15, "grasped in place: no force");
-        // Add gravity and a contact pushing up with stiffness 1000 N/m in z.
+        // Add gravity and a contact pushing up with 1.5 N and stiffness 1000 N/m in z.
         forces.gravity = Some(Gravity::earth().g_m_s2);
         let mut contact = LinearizedContact::none();
         contact.y0 = y;
-        contact.wrench0 = Wrench::new(Vec3::new(0.0, 0.0, 0.5), Vec3::zeros());
-        contact.jacobian[(2, 2)] = -1000.0;
-        contact.contacts = 1;
+        let mut jc = WrenchJacobian::zeros();
+        jc[(2, 2)] = -1000.0;
+        let w = Wrench::new(Vec3::new(0.0, 0.0, 1.5), Vec3::zeros());
+        contact
+            .push(ContactTangent::new(-Vec3::z(), w, jc, 2e-3).unwrap())
+            .unwrap();
         forces.contact = contact;
         let mut y1 = y;
         y1[2] -= 1e-3;
@@ -160,7 +163,7 @@ mod tests {
         let mut j = WrenchJacobian::zeros();
         let w = forces.wrench_and_jacobian(&body, 0.0, &y1, &kin1, &mut j);
         let coupling_z = 200.0 * 1e-3; // the coupling pulls back up too
-        let expected = 0.5 + 1.0 + coupling_z - 0.02 * 9.81;
+        let expected = 1.5 + 1.0 + coupling_z - 0.02 * 9.81;
         assert!(
             (w.force.z - expected).abs() < 1e-12,
             "{} vs {expected}",
@@ -172,7 +175,7 @@ mod tests {
         forces.mode = LinearizationMode::Constant;
         let mut jc = WrenchJacobian::zeros();
         let wc = forces.wrench_and_jacobian(&body, 0.0, &y1, &kin1, &mut jc);
-        assert!((wc.force.z - (0.5 + coupling_z - 0.02 * 9.81)).abs() < 1e-12);
+        assert!((wc.force.z - (1.5 + coupling_z - 0.02 * 9.81)).abs() < 1e-12);
         assert!((jc[(2, 2)] + 200.0).abs() < 1e-9);
     }
 

@@ -381,6 +381,9 @@ impl NewtonBackwardEuler {
     }
 }
 
+/// How many times [`NewtonBackwardEuler`] halves a step that does not decrease the residual.
+const LINE_SEARCH_HALVINGS: i32 = 4;
+
 /// The largest block-relative size of `delta` (blocks x, q, P, L) against `a` and `b`.
 fn block_relative(delta: &StateVector, a: &StateVector, b: &StateVector) -> Real {
     const BLOCKS: [(usize, usize); 4] = [(0, 3), (3, 7), (7, 10), (10, 13)];
@@ -419,18 +422,47 @@ impl Integrator for NewtonBackwardEuler {
         let t1 = t_s + dt_s;
         let mut y = y0;
         let mut jac = SystemJacobian::zeros();
+        let mut trial_jac = SystemJacobian::zeros();
+        let f = derivative_and_jacobian(body, forces, t1, &y, &mut jac)?;
+        let mut g = y - y0 - f * dt_s; // residual of y = y0 + h f(y)
         let mut residual = Real::INFINITY;
         for _ in 0..self.max_iterations {
-            let f = derivative_and_jacobian(body, forces, t1, &y, &mut jac)?;
-            let g = y - y0 - f * dt_s; // residual of y = y0 + h f(y)
             let delta = solve_shifted(&jac, dt_s, &(-g))?;
-            y += delta;
-            if !all_finite(&y) {
-                return Err(IntegrationError::NonFiniteState);
-            }
-            residual = block_relative(&delta, &y0, &y);
+            residual = block_relative(&delta, &y0, &(y + delta));
             if residual <= self.tolerance {
-                return finish(&y);
+                let y1 = y + delta;
+                if !all_finite(&y1) {
+                    return Err(IntegrationError::NonFiniteState);
+                }
+                return finish(&y1);
+            }
+            // Damped Newton with the natural monotonicity test (Deuflhard 2004, NLEQ-ERR): the
+            // contact forces are piecewise smooth (a contact switches off, or reaches its cap),
+            // where full Newton steps can cycle between the pieces. A trial `y + α Δ` is taken
+            // when its simplified Newton correction `Δ̄ = −J(y)⁻¹ g(y + α Δ)` is smaller than
+            // `(1 − α/2) Δ`; otherwise α is halved, at most LINE_SEARCH_HALVINGS times. The
+            // test is affine invariant: no scaling of the residual's units is needed.
+            let size = block_relative(&delta, &y0, &y);
+            let mut alpha = 1.0;
+            loop {
+                let trial = y + delta * alpha;
+                if !all_finite(&trial) {
+                    return Err(IntegrationError::NonFiniteState);
+                }
+                let f = derivative_and_jacobian(body, forces, t1, &trial, &mut trial_jac)?;
+                let g_trial = trial - y0 - f * dt_s;
+                let last = alpha < 0.5_f64.powi(LINE_SEARCH_HALVINGS);
+                let monotone = last || {
+                    let simplified = solve_shifted(&jac, dt_s, &(-g_trial))?;
+                    block_relative(&simplified, &y0, &y) <= (1.0 - alpha / 2.0) * size
+                };
+                if monotone {
+                    y = trial;
+                    g = g_trial;
+                    std::mem::swap(&mut jac, &mut trial_jac);
+                    break;
+                }
+                alpha *= 0.5;
             }
         }
         Err(IntegrationError::NotConverged {

@@ -227,6 +227,12 @@ impl ContactModel for PenaltyModel {
         }
         Ok(Wrench::new(force, torque))
     }
+
+    /// `δ`: a contact reported at `y₀` is at most `δ` from touching, and the query looked no
+    /// farther, so its tangent is trusted up to `δ` deeper.
+    fn extrapolation_reach_m(&self) -> Real {
+        self.params.delta_m
+    }
 }
 
 #[cfg(test)]
@@ -319,6 +325,75 @@ mod tests {
             prop_assert!(r.is_ok(), "torque: {}", r.unwrap_err());
         }
 
+        /// The linearized model (eq. 42), evaluated anywhere, never pulls and never gives a
+        /// contact more normal force than it had at `y₀` plus `k_c δ`: each contact's
+        /// linearization on its own, at states far from `y₀` (the stale case).
+        #[test]
+        fn linearized_model_never_pulls_and_stays_within_reach(
+            body in arb_body(),
+            s0 in arb_raw_state(),
+            s1 in arb_raw_state(),
+            raw in arb_raw_contacts(),
+        ) {
+            let tool = ToolState::from_vector_normalized(&s0.state_vector(&body)).unwrap();
+            let y0 = tool.to_vector();
+            let contacts = contacts_at(&body, &y0, &raw);
+            let kin0 = Kinematics::new(&body, &y0);
+            let y1 = s1.state_vector(&body);
+            for c in &contacts {
+                let mut lin = LinearizedContact::none();
+                model().linearize(&body, &tool, std::slice::from_ref(c), &mut lin).unwrap();
+                let lambda0 = -c.n.dot(&model().evaluate(&body, &y0, &kin0, std::slice::from_ref(c), None).unwrap().force);
+                for e in [0.0, 1e-3, 0.1, 1.0] {
+                    let y = y0 + (y1 - y0) * e;
+                    let w = lin.wrench_at(&y, LinearizationMode::Linearized);
+                    let lambda = -c.n.dot(&w.force);
+                    prop_assert!(lambda >= 0.0, "pulls: λ = {lambda}");
+                    prop_assert!(lambda <= lambda0.max(0.0) + K_C * DELTA + 1e-9 * (1.0 + lambda0.abs()),
+                        "λ = {lambda} beyond λ₀ + k_c δ = {}", lambda0 + K_C * DELTA);
+                    prop_assert!(w.force.cross(&c.n).norm() <= 1e-9 * (1.0 + w.force.norm()));
+                }
+            }
+        }
+
+        /// The Jacobian the haptic thread uses is that of the bounded linearized wrench, away
+        /// from where a contact switches off or reaches its cap.
+        #[test]
+        fn linearized_model_jacobian_matches_fd(
+            body in arb_body(),
+            s0 in arb_raw_state(),
+            s1 in arb_raw_state(),
+            raw in arb_raw_contacts(),
+            e in 0.0..1.0f64,
+        ) {
+            let tool = ToolState::from_vector_normalized(&s0.state_vector(&body)).unwrap();
+            let y0 = tool.to_vector();
+            let contacts = contacts_at(&body, &y0, &raw);
+            let mut lin = LinearizedContact::none();
+            model().linearize(&body, &tool, &contacts, &mut lin).unwrap();
+            let y = y0 + (s1.state_vector(&body) - y0) * (e * e * 0.01);
+            // Stay away from the kinks (λ = 0, ε and λ_max) by a margin the FD steps cannot cross.
+            let dy = y - y0;
+            let scales = crate::testutil::state_scales(&y, body.mass_kg());
+            for t in lin.tangents() {
+                let lambda = t.lambda0_n + (t.dlambda_dy * dy)[0];
+                let reach: Real = (0..13).map(|k| (t.dlambda_dy[k] * scales[k] * 1e-5).abs()).sum();
+                // λ = ε too: the smoothstep is C¹ there, not C², so the differences lose an order.
+                prop_assume!(lambda.abs() > reach
+                    && (lambda - t.release_band_n).abs() > reach
+                    && (lambda - t.lambda_max_n).abs() > reach);
+            }
+            let mut jac = WrenchJacobian::zeros();
+            let w = lin.add_wrench_and_jacobian(&y, LinearizationMode::Linearized, &mut jac);
+            prop_assert_eq!(w, lin.wrench_at(&y, LinearizationMode::Linearized));
+            // 1e-4: the smoothstep of a narrow release band has a large third derivative, which
+            // the differences truncate; a wrong term would be off by O(1).
+            let r = crate::testutil::column_check_rtol(&jac, &y, body.mass_kg(), 1e-4, |yy| {
+                lin.wrench_at(yy, LinearizationMode::Linearized).to_vector()
+            });
+            prop_assert!(r.is_ok(), "{}", r.unwrap_err());
+        }
+
         /// The normal force never pulls: n·F_k ≤ 0 for every contact, whatever the velocity.
         #[test]
         fn penalty_never_pulls(body in arb_body(), s in arb_raw_state(), raw in arb_raw_contacts()) {
@@ -380,6 +455,17 @@ mod tests {
             model().evaluate(&body, &y, &kin, &[zero], None),
             Err(ContactModelError::BadNormal { index: 0, .. })
         ));
+        let many = vec![good; haptic_core::MAX_REPRESENTATIVES + 1];
+        let mut lin = LinearizedContact::none();
+        let tool = ToolState::at_rest(&haptic_core::Pose::identity());
+        assert!(matches!(
+            model().linearize(&body, &tool, &many, &mut lin),
+            Err(ContactModelError::TooManyContacts { .. })
+        ));
+        assert!(matches!(
+            model().linearize(&body, &tool, &[good, nan], &mut lin),
+            Err(ContactModelError::NonFiniteContact { index: 1, .. })
+        ));
         let mut y_nan = y;
         y_nan[IP] = Real::NAN;
         assert!(matches!(
@@ -389,7 +475,8 @@ mod tests {
     }
 
     /// The linearized model (eq. 42) has an error second order in `y − y₀`: the slope of
-    /// log(error) against log(‖y − y₀‖) is 2.
+    /// log(error) against log(‖y − y₀‖) is 2 (for contacts pressed well above the release band
+    /// and moves within their reach, where the tangent is not bounded).
     #[test]
     fn linearization_error_is_second_order() {
         let body = RigidBody::from_principal(0.05, [2e-5, 3e-5, 4e-5]).unwrap();
@@ -401,9 +488,9 @@ mod tests {
             &body,
             &y0,
             &[
-                ([0.02, 0.0, -0.01], [0.1, 0.0, -1.0], 0.4e-3),
-                ([-0.02, 0.01, -0.01], [-0.2, 0.1, -1.0], 0.2e-3),
-                ([0.0, -0.03, 0.0], [0.0, -1.0, 0.0], 0.1e-3),
+                ([0.02, 0.0, -0.01], [0.1, 0.0, -1.0], 1.4e-3),
+                ([-0.02, 0.01, -0.01], [-0.2, 0.1, -1.0], 1.2e-3),
+                ([0.0, -0.03, 0.0], [0.0, -1.0, 0.0], 1.1e-3),
             ],
         );
         let mut lin = LinearizedContact::none();
@@ -414,10 +501,10 @@ mod tests {
         let mut dir = StateVector::zeros();
         for j in 0..13 {
             let scale = match j {
-                j if j < IQ => 1e-3,
-                j if j < IP => 1e-2,
-                j if j < IL => 1e-3 * body.mass_kg(),
-                _ => 1e-6,
+                j if j < IQ => 3e-4,
+                j if j < IP => 3e-3,
+                j if j < IL => 3e-4 * body.mass_kg(),
+                _ => 3e-7,
             };
             dir[j] = scale * ((j as Real + 1.0) * 0.7).sin();
         }

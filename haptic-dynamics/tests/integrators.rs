@@ -452,3 +452,75 @@ fn backward_euler_is_stable_where_forward_euler_is_not() {
     }
     assert!(failed, "forward Euler stayed bounded with a 1 g tool");
 }
+
+/// Full Newton converges against a stale, bounded contact model: a 1 g tool on four contacts
+/// (5 kN/m, `h² k_c / m` = 20 together) linearized once, while the hand moves 3 cm in and out of the floor for
+/// 0.5 s. Each contact's tangent switches off and reaches its cap many times (the piecewise-smooth
+/// force that made undamped full-Newton steps cycle); every step must converge.
+#[test]
+fn newton_converges_against_a_stale_bounded_contact() {
+    use haptic_core::{Contact, ContactModel, LinearizedContact};
+    use haptic_dynamics::{HapticForces, PenaltyModel, PenaltyParams};
+    let body = RigidBody::from_principal(1e-3, [4e-6, 1e-7, 4e-6]).unwrap();
+    let start = ToolState::at_rest(&Pose::identity());
+    let hand = |t: Real| {
+        let z = -0.03 * (2.0 * PI * 5.0 * t).sin();
+        let mut d = DeviceState::at_rest(
+            Pose {
+                position: Vec3::new(0.0, 0.0, z),
+                orientation: UnitQuaternion::identity(),
+            },
+            t,
+        );
+        d.twist.linear.z = -0.03 * 2.0 * PI * 5.0 * (2.0 * PI * 5.0 * t).cos();
+        d
+    };
+    // A stiff coupling (10× the default, as in the stress runs), which presses the light tool
+    // past every tangent's cap at the bottom of the stroke.
+    let d = CouplingParams::default();
+    let params = CouplingParams {
+        stiffness_n_per_m: 10.0 * d.stiffness_n_per_m,
+        damping_ns_per_m: 10.0 * d.damping_ns_per_m,
+        angular_stiffness_nm_per_rad: 10.0 * d.angular_stiffness_nm_per_rad,
+        angular_damping_nms_per_rad: 10.0 * d.angular_damping_nms_per_rad,
+        saturation: None,
+    };
+    let coupling = VirtualCoupling::grasping(params, &start, &hand(0.0)).unwrap();
+    let mut forces = HapticForces::new(coupling);
+    // Four corners of a 2 cm square 0.8 mm above the floor, within δ (normal −z, out of the
+    // tool): 1 N each at y₀, capped at 6 N.
+    let n = -Vec3::z();
+    let contacts: Vec<Contact> = [(1.0, 1.0), (1.0, -1.0), (-1.0, 1.0), (-1.0, -1.0)]
+        .iter()
+        .map(|(a, b)| {
+            let r_a = Vec3::new(0.01 * a, 0.01 * b, -0.005);
+            Contact::new(r_a, r_a, r_a + 0.8e-3 * n, n, -0.8e-3).unwrap()
+        })
+        .collect();
+    let mut model = PenaltyModel::new(PenaltyParams::new(5_000.0, 5.0, 1e-3).unwrap()).unwrap();
+    let mut lin = LinearizedContact::none();
+    model.linearize(&body, &start, &contacts, &mut lin).unwrap();
+    forces.contact = lin;
+    let mut newton = NewtonBackwardEuler::default();
+    let h = 1e-3;
+    let mut s = start;
+    let (mut released, mut capped) = (0, 0);
+    for i in 0..500 {
+        let t = i as Real * h;
+        forces.coupling.set_device(&hand(t)).unwrap();
+        s = match newton.step(&body, &s, t, h, &mut forces) {
+            Ok(next) => next,
+            Err(e) => panic!("step {i} (t = {t:.3} s): {e}"),
+        };
+        let dy = s.to_vector() - lin.y0;
+        for tangent in lin.tangents() {
+            let lambda = tangent.lambda0_n + (tangent.dlambda_dy * dy)[0];
+            released += usize::from(lambda <= 0.0);
+            capped += usize::from(lambda > tangent.lambda_max_n);
+        }
+    }
+    assert!(
+        released > 0 && capped > 0,
+        "released {released}, capped {capped}"
+    );
+}

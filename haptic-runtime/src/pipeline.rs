@@ -242,6 +242,16 @@ impl<I: Integrator, B: CollisionBackend, C: ContactModel, D: Device> PipelineBui
             mode: self.config.linearization,
             gravity: self.config.gravity,
         };
+        if self.config.cluster.max_clusters > haptic_core::MAX_REPRESENTATIVES {
+            return Err(RuntimeError::config(
+                "cluster",
+                format!(
+                    "max_clusters {} is more than a linearized contact model holds ({})",
+                    self.config.cluster.max_clusters,
+                    haptic_core::MAX_REPRESENTATIVES
+                ),
+            ));
+        }
         let clusterer = Clusterer::new(self.config.cluster)
             .map_err(|e| RuntimeError::config("cluster", e.to_string()))?;
         Ok(Pipeline {

@@ -185,7 +185,7 @@ pub struct ContactSpec {
     pub damping_ns_per_m: Option<Real>,
     /// Distance tolerance δ (pre-contact), m.
     pub delta_m: Real,
-    /// K, the most clusters.
+    /// K, the most clusters: 1 to [`haptic_core::MAX_REPRESENTATIVES`].
     pub clusters: usize,
     /// Error threshold of the multiresolution collision detection (fraction of the radius).
     pub error_threshold: Real,
@@ -374,8 +374,15 @@ impl Scene {
         positive("contact.stiffness_n_per_m", self.contact.stiffness_n_per_m)?;
         non_negative_opt("contact.damping_ns_per_m", self.contact.damping_ns_per_m)?;
         positive("contact.delta_m", self.contact.delta_m)?;
-        if self.contact.clusters == 0 {
-            return Err(invalid("contact.clusters", "must be at least 1"));
+        if !(1..=haptic_core::MAX_REPRESENTATIVES).contains(&self.contact.clusters) {
+            return Err(invalid(
+                "contact.clusters",
+                format!(
+                    "must be 1 to {} (the representatives a linearized contact model holds), got {}",
+                    haptic_core::MAX_REPRESENTATIVES,
+                    self.contact.clusters
+                ),
+            ));
         }
         if !(self.contact.error_threshold.is_finite() && self.contact.error_threshold >= 0.0) {
             return Err(invalid(
@@ -463,6 +470,10 @@ mod tests {
             ("[tool]\nmesh = \"a\"\nmass_kg = -1.0\n", "tool.mass_kg"),
             (
                 "[tool]\nmesh = \"a\"\nmass_kg = 1.0\n[contact]\nclusters = 0\n",
+                "contact.clusters",
+            ),
+            (
+                "[tool]\nmesh = \"a\"\nmass_kg = 1.0\n[contact]\nclusters = 17\n",
                 "contact.clusters",
             ),
             (

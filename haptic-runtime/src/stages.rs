@@ -380,7 +380,8 @@ impl<I: Integrator, D: Device> HapticStage<I, D> {
             self.stats.stale_steps += 1;
             let fade = (1.0 - (age_s - self.safety.contact_timeout_s) / self.safety.contact_fade_s)
                 .clamp(0.0, 1.0);
-            self.forces.contact = self.contact.model.scaled(fade);
+            // Set in place: the model is a few kB, not worth a copy per step.
+            self.forces.contact.scale = self.contact.model.scale * fade;
         }
         // 4. Solve for the new state.
         let new_state =

@@ -319,6 +319,17 @@ fn bad_configuration_and_set_up_give_typed_errors() {
         })),
         "cluster"
     );
+    let too_many = haptic_cluster::ClusterParams {
+        max_clusters: haptic_core::MAX_REPRESENTATIVES + 1,
+        ..Default::default()
+    };
+    assert_eq!(
+        field_of(build(PipelineConfig {
+            cluster: too_many,
+            ..PipelineConfig::default()
+        })),
+        "cluster"
+    );
     // A device whose first reading fails: a device error, before anything runs.
     let dead = FaultInjector::new(pressing_hand(), Fault::DisconnectAfter { reads: 0 });
     let r = PipelineBuilder::new(box_body(), Pose::identity())
