@@ -7,7 +7,7 @@
 //! - [`TriMesh`]: validated triangle meshes, loaded from STL (binary and ASCII), OBJ and PLY with
 //!   a unit scale ([`TriMesh::load`], [`LoadOptions`]), and the mass properties of the solid
 //!   they bound ([`TriMesh::mass_properties`]);
-//! - [`LodBackend`]: the native sensation-preserving multiresolution back-end (ref. [9] of the
+//! - [`LodBackend`]: the native sensation-preserving multiresolution back-end (ref. \[9\] of the
 //!   paper), exact at error threshold 0;
 //! - `ParryBackend` (cargo feature `parry`, on by default): parry3d-f64's triangle-mesh contact
 //!   manifolds, as a second implementation and a reference; nothing of parry is compiled

@@ -1,6 +1,6 @@
 //! `LodBackend`: sensation-preserving multiresolution collision detection after Otaduy & Lin,
 //! *Sensation preserving simplification for haptic rendering* (SIGGRAPH 2003), the paper's
-//! ref. [9] (formulation.md, last section).
+//! ref. \[9\] (formulation.md, last section).
 //!
 //! Preprocessing ([`Hierarchy::build`]) turns each mesh into one binary hierarchy that is both a
 //! bounding-volume hierarchy (spheres and slabs) and a level-of-detail hierarchy: every node
