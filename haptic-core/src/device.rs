@@ -1,6 +1,6 @@
-//! The [`Device`] trait: a haptic (or input-only) device.
+//! The [`Device`] trait: a haptic (or input-only) device, and its errors ([`Error`], [`ErrorKind`]).
 
-use crate::error::{CoreError, DeviceError};
+use crate::error::CoreError;
 use crate::math::{Real, Vec3};
 use crate::state::{DeviceState, Wrench};
 
@@ -131,7 +131,7 @@ impl DeviceLimits {
 ///
 /// Contract for implementers:
 /// - Every operation that touches hardware is fallible; errors say their
-///   [`crate::DeviceErrorKind`] (disconnected, timeout, …) through [`DeviceError::kind`].
+///   [`ErrorKind`] (disconnected, timeout, …) through [`Error::kind`].
 /// - `command` must never render more than [`Device::limits`]; callers saturate before sending,
 ///   and a device should clamp too.
 /// - `command_zero` must work whenever the device is reachable: it is the safe state.
@@ -140,7 +140,7 @@ impl DeviceLimits {
 /// - Configuration (opening, calibration) stays out of the trait, in constructors.
 pub trait Device {
     /// The device's error type.
-    type Error: DeviceError;
+    type Error: Error;
 
     /// A human-readable name.
     fn name(&self) -> &str;
@@ -271,5 +271,68 @@ mod tests {
         assert!(!c && w.force.x == 1.0);
         let (w, c) = l.saturate(&Wrench::new(Vec3::new(Real::NAN, 0.0, 0.0), Vec3::zeros()));
         assert!(c && w == Wrench::zero());
+    }
+}
+
+/// What went wrong with a device, independent of the device's own error type.
+///
+/// Modelled on `embedded-hal`'s `ErrorKind`: every device error maps to one kind, so generic code
+/// (the runtime) can react without knowing the concrete device.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
+#[non_exhaustive]
+pub enum ErrorKind {
+    /// The device was unplugged or its handle closed.
+    Disconnected,
+    /// The device did not answer in time.
+    Timeout,
+    /// No device was found to open.
+    NotFound,
+    /// The device sent data that could not be understood (a bad report, a NaN pose).
+    InvalidData,
+    /// The device rejected a command.
+    CommandRejected,
+    /// Anything else.
+    Other,
+}
+
+/// An error reported by a [`Device`]: any error type that can say its [`ErrorKind`] (as
+/// `embedded_hal::digital::Error` does).
+///
+/// Implement it for your device's error type; generic code calls `e.kind()` with this trait in
+/// scope (`use haptic_core::device::Error as _;`).
+pub trait Error: std::error::Error + Send + Sync + 'static {
+    /// The kind of failure, for generic handling.
+    fn kind(&self) -> ErrorKind;
+}
+
+/// A ready-made device error for implementers who need nothing more specific.
+#[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
+#[error("device error: {kind:?}: {message}")]
+pub struct DeviceFault {
+    /// The kind of failure.
+    pub kind: ErrorKind,
+    /// Human-readable detail.
+    pub message: String,
+}
+
+impl DeviceFault {
+    /// A fault of the given kind with a message.
+    pub fn new(kind: ErrorKind, message: impl Into<String>) -> Self {
+        Self {
+            kind,
+            message: message.into(),
+        }
+    }
+}
+
+impl Error for DeviceFault {
+    fn kind(&self) -> ErrorKind {
+        self.kind
+    }
+}
+
+impl Error for std::convert::Infallible {
+    fn kind(&self) -> ErrorKind {
+        match *self {}
     }
 }

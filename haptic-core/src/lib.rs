@@ -23,9 +23,10 @@
 //! ## Implementing a device and a collision back-end downstream
 //!
 //! ```
+//! use haptic_core::device::{Error as _, ErrorKind};
 //! use haptic_core::{
-//!     CollisionBackend, Contact, ContactSet, Device, DeviceErrorKind, DeviceFault, DeviceLimits,
-//!     DeviceState, Pose, QueryParams, QueryStats, Real, Vec3, Wrench,
+//!     CollisionBackend, Contact, ContactSet, Device, DeviceFault, DeviceLimits, DeviceState, Pose,
+//!     QueryParams, QueryStats, Real, Vec3, Wrench,
 //! };
 //!
 //! /// A handle that sits still, and remembers the last force it was told to render.
@@ -45,7 +46,7 @@
 //!     }
 //!     fn read(&mut self, now_s: Real) -> Result<DeviceState, DeviceFault> {
 //!         if self.unplugged {
-//!             return Err(DeviceFault::new(DeviceErrorKind::Disconnected, "cable pulled"));
+//!             return Err(DeviceFault::new(ErrorKind::Disconnected, "cable pulled"));
 //!         }
 //!         Ok(DeviceState::at_rest(self.pose, now_s))
 //!     }
@@ -90,7 +91,7 @@
 //! assert!((handle.last.force.norm() - 3.0).abs() < 1e-12); // clamped to the limit
 //! handle.unplugged = true;
 //! let err = handle.read(0.001).unwrap_err();
-//! assert_eq!(haptic_core::DeviceError::kind(&err), DeviceErrorKind::Disconnected);
+//! assert_eq!(err.kind(), ErrorKind::Disconnected);
 //!
 //! let mut floor = PointOnFloor;
 //! let mut contacts = ContactSet::new();
@@ -120,10 +121,8 @@ pub use contact::{Contact, ContactSet, NO_FEATURE};
 pub use contact_model::{
     ContactModel, ContactTangent, LinearizationMode, LinearizedContact, MAX_REPRESENTATIVES,
 };
-pub use device::{Device, DeviceLimits};
-pub use error::{
-    ContactModelError, CoreError, DeviceError, DeviceErrorKind, DeviceFault, IntegrationError,
-};
+pub use device::{Device, DeviceFault, DeviceLimits};
+pub use error::{ContactModelError, CoreError, IntegrationError};
 pub use integrator::{ForceModel, Integrator};
 pub use math::{
     Mat3, Quat4, Real, StateVector, SystemJacobian, Vec3, WrenchJacobian, WrenchVector,

@@ -1,6 +1,6 @@
 //! The crate's error type, [`DeviceError`], and what each variant means to the runtime.
 
-use haptic_core::{CoreError, DeviceErrorKind, Real};
+use haptic_core::{CoreError, Real, device::ErrorKind};
 
 use crate::spacemouse::ReportError;
 
@@ -79,7 +79,7 @@ pub enum CsvProblem {
 
 /// Every error of this crate's devices.
 ///
-/// Each variant maps to one [`DeviceErrorKind`] through [`haptic_core::DeviceError::kind`], which
+/// Each variant maps to one [`ErrorKind`] through [`haptic_core::device::Error::kind`], which
 /// is what the runtime reacts to:
 ///
 /// | variant | kind | runtime reaction |
@@ -198,7 +198,7 @@ pub enum DeviceError {
     #[error("{source}")]
     Inner {
         /// The wrapped error's kind.
-        kind: DeviceErrorKind,
+        kind: ErrorKind,
         /// The wrapped error.
         #[source]
         source: Box<dyn std::error::Error + Send + Sync + 'static>,
@@ -208,7 +208,7 @@ pub enum DeviceError {
 impl DeviceError {
     /// Converts any device's error into this type, keeping its kind. An error that already is a
     /// [`DeviceError`] is returned unchanged (not nested).
-    pub fn from_device<E: haptic_core::DeviceError>(e: E) -> Self {
+    pub fn from_device<E: haptic_core::device::Error>(e: E) -> Self {
         let kind = e.kind();
         let boxed: Box<dyn std::error::Error + Send + Sync + 'static> = Box::new(e);
         match boxed.downcast::<DeviceError>() {
@@ -223,15 +223,13 @@ impl DeviceError {
     }
 }
 
-impl haptic_core::DeviceError for DeviceError {
-    fn kind(&self) -> DeviceErrorKind {
+impl haptic_core::device::Error for DeviceError {
+    fn kind(&self) -> ErrorKind {
         match self {
-            Self::Disconnected { .. } => DeviceErrorKind::Disconnected,
-            Self::Timeout { .. } => DeviceErrorKind::Timeout,
-            Self::NotFound { .. } => DeviceErrorKind::NotFound,
-            Self::NonFinite { .. } | Self::Report(_) | Self::Csv { .. } => {
-                DeviceErrorKind::InvalidData
-            }
+            Self::Disconnected { .. } => ErrorKind::Disconnected,
+            Self::Timeout { .. } => ErrorKind::Timeout,
+            Self::NotFound { .. } => ErrorKind::NotFound,
+            Self::NonFinite { .. } | Self::Report(_) | Self::Csv { .. } => ErrorKind::InvalidData,
             Self::Inner { kind, .. } => *kind,
             Self::Io { .. }
             | Self::NoWaypoints
@@ -241,7 +239,7 @@ impl haptic_core::DeviceError for DeviceError {
             | Self::Limits(_)
             | Self::BadTime { .. }
             | Self::TimeWentBack { .. }
-            | Self::Hid { .. } => DeviceErrorKind::Other,
+            | Self::Hid { .. } => ErrorKind::Other,
         }
     }
 }
@@ -271,41 +269,40 @@ pub(crate) fn finite_time(now_s: Real) -> Result<Real, DeviceError> {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use haptic_core::{DeviceError as _, DeviceFault};
+    use haptic_core::{DeviceFault, device::Error as _};
 
     #[test]
     fn kinds_follow_the_table() {
         let k = |e: DeviceError| e.kind();
         assert_eq!(
             k(DeviceError::Disconnected { detail: "x".into() }),
-            DeviceErrorKind::Disconnected
+            ErrorKind::Disconnected
         );
         assert_eq!(
             k(DeviceError::Timeout { stalled_s: 0.1 }),
-            DeviceErrorKind::Timeout
+            ErrorKind::Timeout
         );
         assert_eq!(
             k(DeviceError::NotFound { detail: "x".into() }),
-            DeviceErrorKind::NotFound
+            ErrorKind::NotFound
         );
         assert_eq!(
             k(DeviceError::NonFinite { what: "pose" }),
-            DeviceErrorKind::InvalidData
+            ErrorKind::InvalidData
         );
         assert_eq!(
             k(DeviceError::csv(3, CsvProblem::NoSamples)),
-            DeviceErrorKind::InvalidData
+            ErrorKind::InvalidData
         );
-        assert_eq!(k(DeviceError::NoWaypoints), DeviceErrorKind::Other);
+        assert_eq!(k(DeviceError::NoWaypoints), ErrorKind::Other);
     }
 
     #[test]
     fn from_device_keeps_kind_and_does_not_nest() {
         let own = DeviceError::from_device(DeviceError::Timeout { stalled_s: 2.0 });
         assert!(matches!(own, DeviceError::Timeout { stalled_s } if stalled_s == 2.0));
-        let foreign =
-            DeviceError::from_device(DeviceFault::new(DeviceErrorKind::CommandRejected, "no"));
-        assert_eq!(foreign.kind(), DeviceErrorKind::CommandRejected);
+        let foreign = DeviceError::from_device(DeviceFault::new(ErrorKind::CommandRejected, "no"));
+        assert_eq!(foreign.kind(), ErrorKind::CommandRejected);
         assert!(matches!(foreign, DeviceError::Inner { .. }));
         assert!(foreign.to_string().contains("no"));
     }

@@ -192,14 +192,14 @@ impl<D: Device> Device for FaultInjector<D> {
 mod tests {
     use super::*;
     use crate::scripted::ScriptedDevice;
-    use haptic_core::{DeviceError as _, DeviceErrorKind, Pose};
+    use haptic_core::{Pose, device::Error as _, device::ErrorKind};
 
     fn still() -> ScriptedDevice {
         let l = DeviceLimits::new(3.0, 0.3, Vec3::repeat(-0.1), Vec3::repeat(0.1), 1000.0).unwrap();
         ScriptedDevice::stationary(Pose::identity(), l).unwrap()
     }
 
-    fn kinds(d: &mut FaultInjector<ScriptedDevice>, n: usize) -> Vec<Option<DeviceErrorKind>> {
+    fn kinds(d: &mut FaultInjector<ScriptedDevice>, n: usize) -> Vec<Option<ErrorKind>> {
         (0..n)
             .map(|i| d.read(i as Real * 1e-3).err().map(|e| e.kind()))
             .collect()
@@ -219,14 +219,10 @@ mod tests {
         let mut d = FaultInjector::new(still(), Fault::DisconnectAfter { reads: 3 });
         let k = kinds(&mut d, 6);
         assert_eq!(&k[..3], &[None, None, None]);
-        assert!(
-            k[3..]
-                .iter()
-                .all(|k| *k == Some(DeviceErrorKind::Disconnected))
-        );
+        assert!(k[3..].iter().all(|k| *k == Some(ErrorKind::Disconnected)));
         assert!(d.is_disconnected());
         let e = d.command_zero().unwrap_err();
-        assert_eq!(e.kind(), DeviceErrorKind::Disconnected);
+        assert_eq!(e.kind(), ErrorKind::Disconnected);
         assert!(e.to_string().contains("after 3 reads"), "{e}");
         assert!(d.command(&Wrench::zero()).is_err());
     }
@@ -240,8 +236,8 @@ mod tests {
             vec![
                 None,
                 None,
-                Some(DeviceErrorKind::InvalidData),
-                Some(DeviceErrorKind::InvalidData)
+                Some(ErrorKind::InvalidData),
+                Some(ErrorKind::InvalidData)
             ]
         );
         assert!(matches!(
@@ -258,7 +254,7 @@ mod tests {
                 reads: 2,
             },
         );
-        let bad = Some(DeviceErrorKind::InvalidData);
+        let bad = Some(ErrorKind::InvalidData);
         assert_eq!(kinds(&mut b, 5), vec![None, bad, bad, None, None]);
     }
 
@@ -271,7 +267,7 @@ mod tests {
                 duration_s: 0.0025,
             },
         );
-        let to = Some(DeviceErrorKind::Timeout);
+        let to = Some(ErrorKind::Timeout);
         // Reads at 0, 1, 2, 3, 4, 5 ms: silent from 2 ms to 4.5 ms.
         assert_eq!(kinds(&mut d, 6), vec![None, None, to, to, to, None]);
         match d.read(0.0045 - 1e-9) {
@@ -291,10 +287,7 @@ mod tests {
             Err(DeviceError::Timeout { stalled_s }) => assert_eq!(stalled_s, 0.0),
             other => panic!("{other:?}"),
         }
-        assert_eq!(
-            d.command_zero().unwrap_err().kind(),
-            DeviceErrorKind::Timeout
-        );
+        assert_eq!(d.command_zero().unwrap_err().kind(), ErrorKind::Timeout);
         match d.read(0.75) {
             Err(DeviceError::Timeout { stalled_s }) => assert_eq!(stalled_s, 0.25),
             other => panic!("{other:?}"),
@@ -310,10 +303,7 @@ mod tests {
             still().limits(),
         );
         let mut d = FaultInjector::new(nan, Fault::None);
-        assert_eq!(
-            d.read(0.0).unwrap_err().kind(),
-            DeviceErrorKind::InvalidData
-        );
+        assert_eq!(d.read(0.0).unwrap_err().kind(), ErrorKind::InvalidData);
         assert!(matches!(
             d.read(Real::NAN),
             Err(DeviceError::BadTime { .. })

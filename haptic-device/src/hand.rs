@@ -620,8 +620,8 @@ mod tests {
         h.read(0.0).unwrap();
         let e = h.read(1.0).unwrap_err();
         assert_eq!(
-            haptic_core::DeviceError::kind(&e),
-            haptic_core::DeviceErrorKind::InvalidData
+            haptic_core::device::Error::kind(&e),
+            haptic_core::device::ErrorKind::InvalidData
         );
     }
 }

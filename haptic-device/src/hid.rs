@@ -257,16 +257,16 @@ mod tests {
         match SpaceMouse::open_first(SpaceMouseConfig::default()) {
             Ok(d) => assert_eq!(d.limits().max_force_n, 0.0),
             Err(e) => {
-                let kind = haptic_core::DeviceError::kind(&e);
+                let kind = haptic_core::device::Error::kind(&e);
                 assert!(
                     matches!(
                         kind,
-                        haptic_core::DeviceErrorKind::NotFound
-                            | haptic_core::DeviceErrorKind::Other
+                        haptic_core::device::ErrorKind::NotFound
+                            | haptic_core::device::ErrorKind::Other
                     ),
                     "{e}"
                 );
-                if kind == haptic_core::DeviceErrorKind::NotFound {
+                if kind == haptic_core::device::ErrorKind::NotFound {
                     assert!(e.to_string().contains("SpaceMouse"));
                 } else {
                     assert!(matches!(e, DeviceError::Hid { .. }), "{e}");

@@ -782,7 +782,7 @@ mod tests {
     use super::*;
     use crate::hand::{HandDevice, HandParams};
     use crate::scripted::{ScriptedDevice, Waypoint};
-    use haptic_core::{DeviceError as _, DeviceErrorKind};
+    use haptic_core::{device::Error as _, device::ErrorKind};
     use proptest::prelude::*;
 
     fn limits() -> DeviceLimits {
@@ -968,7 +968,7 @@ mod tests {
     fn csv_error(text: &str) -> (usize, CsvProblem) {
         match ReplayDevice::from_reader(text.as_bytes()) {
             Err(e @ DeviceError::Csv { .. }) => {
-                assert_eq!(e.kind(), DeviceErrorKind::InvalidData);
+                assert_eq!(e.kind(), ErrorKind::InvalidData);
                 match e {
                     DeviceError::Csv { line, problem } => (line, problem),
                     _ => unreachable!(),
@@ -1149,10 +1149,7 @@ mod tests {
         );
         let mut rec = Recorder::new(nan, Vec::new()).unwrap();
         rec.read(0.0).unwrap();
-        assert_eq!(
-            rec.read(1.0).unwrap_err().kind(),
-            DeviceErrorKind::InvalidData
-        );
+        assert_eq!(rec.read(1.0).unwrap_err().kind(), ErrorKind::InvalidData);
         let bytes = rec.finish().unwrap();
         assert_eq!(
             ReplayDevice::from_reader(bytes.as_slice())

@@ -496,8 +496,8 @@ mod tests {
         assert!(nan.read(0.5).is_ok());
         let e = nan.read(2.0).unwrap_err();
         assert_eq!(
-            haptic_core::DeviceError::kind(&e),
-            haptic_core::DeviceErrorKind::InvalidData
+            haptic_core::device::Error::kind(&e),
+            haptic_core::device::ErrorKind::InvalidData
         );
         assert!(matches!(
             nan.read(Real::NAN),

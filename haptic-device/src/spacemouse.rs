@@ -534,8 +534,8 @@ mod tests {
         // The driver turns the error into a DeviceError of kind InvalidData.
         let e: DeviceError = ReportError::Empty.into();
         assert_eq!(
-            haptic_core::DeviceError::kind(&e),
-            haptic_core::DeviceErrorKind::InvalidData
+            haptic_core::device::Error::kind(&e),
+            haptic_core::device::ErrorKind::InvalidData
         );
     }
 

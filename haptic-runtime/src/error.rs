@@ -1,6 +1,6 @@
 //! Errors of the runtime.
 
-use haptic_core::DeviceErrorKind;
+use haptic_core::device::ErrorKind;
 
 use crate::telemetry::Summary;
 
@@ -13,7 +13,7 @@ pub enum RuntimeError {
     #[error("device error ({kind:?}): {message}")]
     Device {
         /// Kind of the failure.
-        kind: DeviceErrorKind,
+        kind: ErrorKind,
         /// The device's own message.
         message: String,
         /// Telemetry up to the failure.
@@ -38,6 +38,7 @@ pub enum RuntimeError {
         reason: String,
     },
     /// The scene could not be loaded.
+    #[cfg(feature = "scene")]
     #[error(transparent)]
     Scene(#[from] crate::scene::SceneError),
     /// The initial state could not be set up (a grasp on a NaN pose, say).

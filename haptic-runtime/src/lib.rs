@@ -38,12 +38,14 @@
 
 pub mod error;
 pub mod pipeline;
+#[cfg(feature = "scene")]
 pub mod scene;
 pub mod stages;
 pub mod telemetry;
 
 pub use error::RuntimeError;
 pub use pipeline::{ContactLatency, Pipeline, PipelineBuilder, PipelineConfig, REALTIME_PRIORITY};
+#[cfg(feature = "scene")]
 pub use scene::{Scene, SceneError, SceneParts};
 pub use stages::{
     ContactStage, ContactUpdate, DeviceFailure, HapticStage, SafetyConfig, StepOutcome,

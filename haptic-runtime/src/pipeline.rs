@@ -223,7 +223,7 @@ impl<I: Integrator, B: CollisionBackend, C: ContactModel, D: Device> PipelineBui
     pub fn build(mut self) -> Result<Pipeline<I, B, C, D>, RuntimeError> {
         self.config.validate()?;
         let first = self.device.read(0.0).map_err(|e| RuntimeError::Device {
-            kind: haptic_core::DeviceError::kind(&e),
+            kind: haptic_core::device::Error::kind(&e),
             message: e.to_string(),
             summary: Box::default(),
         })?;

@@ -3,9 +3,9 @@
 
 use haptic_cluster::Clusterer;
 use haptic_core::{
-    CollisionBackend, ContactModel, ContactSet, Device, DeviceError, DeviceErrorKind, DeviceLimits,
-    DeviceState, Integrator, LinearizationMode, LinearizedContact, QueryParams, Real, RigidBody,
-    ToolState, Wrench,
+    CollisionBackend, ContactModel, ContactSet, Device, DeviceLimits, DeviceState, Integrator,
+    LinearizationMode, LinearizedContact, QueryParams, Real, RigidBody, ToolState, Wrench,
+    device::{Error as _, ErrorKind},
 };
 use haptic_dynamics::forces::HapticForces;
 
@@ -190,7 +190,7 @@ pub enum StepOutcome {
 #[derive(Debug, Clone, PartialEq)]
 pub struct DeviceFailure {
     /// Kind of the failure.
-    pub kind: DeviceErrorKind,
+    pub kind: ErrorKind,
     /// Message.
     pub message: String,
 }
@@ -357,7 +357,7 @@ impl<I: Integrator, D: Device> HapticStage<I, D> {
         let reading: DeviceState = match self.device.read(now_s) {
             Ok(s) if s.is_finite() => s,
             Ok(_) => return self.zero_force_step(false),
-            Err(e) if e.kind() == DeviceErrorKind::InvalidData => {
+            Err(e) if e.kind() == ErrorKind::InvalidData => {
                 return self.zero_force_step(false);
             }
             Err(e) => {

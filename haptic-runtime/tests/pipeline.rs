@@ -8,7 +8,7 @@ use std::time::Duration;
 
 use common::{BoxOnFloor, HALF_M, Misbehaving, box_body, limits, pressing_hand};
 use haptic_collision::LodBackend;
-use haptic_core::{DeviceErrorKind, Pose, RigidBody, Vec3};
+use haptic_core::{Pose, RigidBody, Vec3, device::ErrorKind};
 use haptic_device::{Fault, FaultInjector, ScriptedDevice};
 use haptic_dynamics::{BackwardEuler, PenaltyModel, PenaltyParams};
 use haptic_runtime::{
@@ -122,7 +122,7 @@ fn a_device_that_disconnects_stops_the_run_with_zero_force() {
         .unwrap_err();
     match err {
         RuntimeError::Device { kind, summary, .. } => {
-            assert_eq!(kind, DeviceErrorKind::Disconnected);
+            assert_eq!(kind, ErrorKind::Disconnected);
             assert!(summary.haptic_steps >= 300 && summary.haptic_steps <= 302);
         }
         other => panic!("unexpected error {other}"),
@@ -341,7 +341,7 @@ fn bad_configuration_and_set_up_give_typed_errors() {
     assert!(matches!(
         r,
         Err(RuntimeError::Device {
-            kind: DeviceErrorKind::Disconnected,
+            kind: ErrorKind::Disconnected,
             ..
         })
     ));
