@@ -18,22 +18,45 @@
 //! (finite, saturated forces; zero force on NaN or failed solves; fade-out when the contact thread
 //! stalls or dies; clean stop on device failure). It does not own any physics or geometry.
 //!
-//! ```no_run
+//! The pipeline from its four parts (here a back-end with nothing to collide with, so the tool
+//! simply follows the hand; `examples/` has an analytic back-end, a device of your own and the
+//! spoon in the cup):
+//!
+//! ```
 //! # fn main() -> Result<(), Box<dyn std::error::Error>> {
+//! use haptic_core::{
+//!     CollisionBackend, ContactSet, CoreError, DeviceLimits, Pose, QueryParams, QueryStats, Real,
+//!     RigidBody, Vec3,
+//! };
+//! use haptic_device::{ScriptedDevice, Waypoint};
+//! use haptic_dynamics::{BackwardEuler, PenaltyModel, PenaltyParams};
 //! use haptic_runtime::{ContactLatency, PipelineBuilder};
-//! # let (body, pose, integrator, backend, model, device) = todo_parts();
-//! let mut pipeline = PipelineBuilder::new(body, pose)
-//!     .integrator(integrator)
-//!     .backend(backend)
-//!     .contact_model(model)
-//!     .device(device)
+//!
+//! struct Nothing;
+//! impl CollisionBackend for Nothing {
+//!     type Error = CoreError;
+//!     fn name(&self) -> &str { "nothing" }
+//!     fn tool_bounding_radius_m(&self) -> Real { 0.05 }
+//!     fn query(&mut self, _: &Pose, _: &QueryParams, out: &mut ContactSet)
+//!         -> Result<QueryStats, CoreError> { out.clear(); Ok(QueryStats::default()) }
+//! }
+//!
+//! let limits = DeviceLimits::new(10.0, 1.0, Vec3::repeat(-0.5), Vec3::repeat(0.5), 1000.0)?;
+//! let goal = Pose::from_position(Vec3::new(0.05, 0.0, 0.0));
+//! let hand = ScriptedDevice::from_waypoints(
+//!     vec![Waypoint::new(0.0, Pose::identity()), Waypoint::new(0.5, goal)],
+//!     limits,
+//! )?;
+//! let mut pipeline = PipelineBuilder::new(RigidBody::sphere(0.05, 0.02)?, Pose::identity())
+//!     .integrator(BackwardEuler)
+//!     .backend(Nothing)
+//!     .contact_model(PenaltyModel::new(PenaltyParams::default())?)
+//!     .device(hand)
 //!     .build()?;
 //! let summary = pipeline.run_virtual(1.0, ContactLatency::FixedRate { rate_hz: 500.0 }, |_, _| {})?;
-//! println!("max penetration {:.3} mm", summary.max_penetration_m * 1e3);
+//! assert_eq!(summary.haptic_steps, 1000);
+//! assert!((pipeline.haptic().tool().x - goal.position).norm() < 1e-3); // it followed the hand
 //! # Ok(()) }
-//! # fn todo_parts() -> (haptic_core::RigidBody, haptic_core::Pose,
-//! #   haptic_dynamics::integrators::BackwardEuler, haptic_collision::LodBackend,
-//! #   haptic_dynamics::penalty::PenaltyModel, haptic_device::ScriptedDevice) { unreachable!() }
 //! ```
 
 pub mod error;
