@@ -106,6 +106,7 @@
 //! ```
 
 pub mod body;
+pub mod check;
 pub mod collision;
 pub mod contact;
 pub mod contact_model;

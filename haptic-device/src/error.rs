@@ -158,19 +158,10 @@ pub enum DeviceError {
         /// Time of this waypoint (s).
         t_s: Real,
     },
-    /// A parameter is outside its admissible range.
-    #[error("{what} = {value} is out of range: {expected}")]
-    Parameter {
-        /// Which parameter.
-        what: &'static str,
-        /// The value given.
-        value: Real,
-        /// What was expected.
-        expected: &'static str,
-    },
-    /// Invalid device limits (from `DeviceLimits::new`).
-    #[error("invalid device limits: {0}")]
-    Limits(#[from] CoreError),
+    /// A parameter (a gain, a scale, the device limits, ...) is not finite or out of range: see
+    /// [`haptic_core::check`], which names it by its field path.
+    #[error("invalid parameter: {0}")]
+    Parameter(#[from] CoreError),
     /// The caller's clock was NaN or infinite.
     #[error("read time {now_s} s is not finite")]
     BadTime {
@@ -235,25 +226,11 @@ impl haptic_core::device::Error for DeviceError {
             | Self::NoWaypoints
             | Self::BadWaypoint { .. }
             | Self::WaypointTimeNotIncreasing { .. }
-            | Self::Parameter { .. }
-            | Self::Limits(_)
+            | Self::Parameter(_)
             | Self::BadTime { .. }
             | Self::TimeWentBack { .. }
             | Self::Hid { .. } => ErrorKind::Other,
         }
-    }
-}
-
-/// Checks that a parameter is finite and strictly positive.
-pub(crate) fn positive(what: &'static str, value: Real) -> Result<Real, DeviceError> {
-    if value.is_finite() && value > 0.0 {
-        Ok(value)
-    } else {
-        Err(DeviceError::Parameter {
-            what,
-            value,
-            expected: "finite and > 0",
-        })
     }
 }
 
@@ -309,13 +286,6 @@ mod tests {
 
     #[test]
     fn parameter_checks() {
-        assert_eq!(positive("m", 2.0).unwrap(), 2.0);
-        for bad in [0.0, -1.0, Real::NAN, Real::INFINITY] {
-            assert!(matches!(
-                positive("m", bad),
-                Err(DeviceError::Parameter { what: "m", .. })
-            ));
-        }
         assert!(finite_time(1.0).is_ok());
         assert!(matches!(
             finite_time(Real::NAN),

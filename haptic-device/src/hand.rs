@@ -4,7 +4,7 @@
 use haptic_core::{Device, DeviceLimits, DeviceState, Pose, Real, Twist, Vec3, Wrench};
 use nalgebra::UnitQuaternion;
 
-use crate::error::{DeviceError, finite_time, positive};
+use crate::error::{DeviceError, finite_time};
 use crate::scripted::{ScriptedDevice, check_state};
 
 /// Mechanical impedance of a human hand and arm grasping a handle, about the grasp point.
@@ -72,22 +72,22 @@ impl HandParams {
     /// [`DeviceError::Parameter`] for a non-positive or non-finite value, or for a sub-step too
     /// long for the stiffness (`ω_n · max_substep_s >` [`MAX_OMEGA_DT`]).
     pub fn validate(&self) -> Result<(), DeviceError> {
-        positive("mass_kg", self.mass_kg)?;
-        positive("stiffness_n_per_m", self.stiffness_n_per_m)?;
-        positive("damping_n_s_per_m", self.damping_n_s_per_m)?;
-        positive("inertia_kg_m2", self.inertia_kg_m2)?;
-        positive("rot_stiffness_nm_per_rad", self.rot_stiffness_nm_per_rad)?;
-        positive("rot_damping_nm_s_per_rad", self.rot_damping_nm_s_per_rad)?;
-        positive("max_substep_s", self.max_substep_s)?;
+        haptic_core::check::positive("mass_kg", self.mass_kg)?;
+        haptic_core::check::positive("stiffness_n_per_m", self.stiffness_n_per_m)?;
+        haptic_core::check::positive("damping_n_s_per_m", self.damping_n_s_per_m)?;
+        haptic_core::check::positive("inertia_kg_m2", self.inertia_kg_m2)?;
+        haptic_core::check::positive("rot_stiffness_nm_per_rad", self.rot_stiffness_nm_per_rad)?;
+        haptic_core::check::positive("rot_damping_nm_s_per_rad", self.rot_damping_nm_s_per_rad)?;
+        haptic_core::check::positive("max_substep_s", self.max_substep_s)?;
         let w = self
             .natural_frequency_rad_s()
             .max(self.rot_natural_frequency_rad_s());
         if w * self.max_substep_s > MAX_OMEGA_DT {
-            return Err(DeviceError::Parameter {
+            return Err(DeviceError::Parameter(haptic_core::CoreError::OutOfRange {
                 what: "max_substep_s",
                 value: self.max_substep_s,
                 expected: "<= 0.2 / natural frequency",
-            });
+            }));
         }
         Ok(())
     }
@@ -446,7 +446,7 @@ mod tests {
             let target = ScriptedDevice::stationary(Pose::identity(), limits()).unwrap();
             assert!(matches!(
                 HandDevice::new(p, target, limits()),
-                Err(DeviceError::Parameter { .. })
+                Err(DeviceError::Parameter(_))
             ));
         }
     }

@@ -52,7 +52,7 @@ use std::path::Path;
 use haptic_core::{Device, DeviceLimits, DeviceState, Pose, Real, Twist, Vec3, Wrench};
 use nalgebra::{Quaternion, UnitQuaternion};
 
-use crate::error::{CsvProblem, DeviceError, finite_time, positive};
+use crate::error::{CsvProblem, DeviceError, finite_time};
 use crate::scripted::check_state;
 
 /// The version of the format this crate writes and reads.
@@ -108,9 +108,9 @@ impl RecordingHeader {
     }
 
     fn validate(&self) -> Result<(), DeviceError> {
-        positive("rate_hz", self.rate_hz)?;
-        positive("workspace_scale", self.workspace_scale)?;
-        positive("force_scale", self.force_scale)?;
+        haptic_core::check::positive("rate_hz", self.rate_hz)?;
+        haptic_core::check::positive("workspace_scale", self.workspace_scale)?;
+        haptic_core::check::positive("force_scale", self.force_scale)?;
         Ok(())
     }
 
@@ -1137,10 +1137,10 @@ mod tests {
         let bad = RecordingHeader::for_device(&hand()).with_scales(0.0, 1.0);
         assert!(matches!(
             Recorder::with_header(hand(), Vec::new(), bad),
-            Err(DeviceError::Parameter {
+            Err(DeviceError::Parameter(haptic_core::CoreError::OutOfRange {
                 what: "workspace_scale",
                 ..
-            })
+            }))
         ));
         // A NaN from the recorded device is an error, and not a row.
         let nan = ScriptedDevice::from_fn(

@@ -2,7 +2,7 @@
 
 use haptic_core::{Device, DeviceLimits, DeviceState, Real, Vec3, Wrench};
 
-use crate::error::{DeviceError, positive};
+use crate::error::DeviceError;
 
 /// Wraps any device so that its handle moves in a scaled copy of its workspace, and the wrenches
 /// the virtual world computes are scaled before they reach it.
@@ -37,8 +37,8 @@ impl<D: Device> ScaledDevice<D> {
     pub fn new(inner: D, workspace_scale: Real, force_scale: Real) -> Result<Self, DeviceError> {
         Ok(Self {
             inner,
-            workspace_scale: positive("workspace_scale", workspace_scale)?,
-            force_scale: positive("force_scale", force_scale)?,
+            workspace_scale: haptic_core::check::positive("workspace_scale", workspace_scale)?,
+            force_scale: haptic_core::check::positive("force_scale", force_scale)?,
             torque_scale: force_scale,
             origin_m: Vec3::zeros(),
         })
@@ -49,7 +49,7 @@ impl<D: Device> ScaledDevice<D> {
     /// # Errors
     /// [`DeviceError::Parameter`] unless it is finite and positive.
     pub fn with_torque_scale(mut self, torque_scale: Real) -> Result<Self, DeviceError> {
-        self.torque_scale = positive("torque_scale", torque_scale)?;
+        self.torque_scale = haptic_core::check::positive("torque_scale", torque_scale)?;
         Ok(self)
     }
 
@@ -245,7 +245,7 @@ mod tests {
         ] {
             assert!(matches!(
                 ScaledDevice::new(line(), s, f),
-                Err(DeviceError::Parameter { .. })
+                Err(DeviceError::Parameter(_))
             ));
         }
         assert!(

@@ -23,7 +23,7 @@
 use haptic_core::{DeviceLimits, DeviceState, Pose, Real, Twist, Vec3};
 use nalgebra::UnitQuaternion;
 
-use crate::error::{DeviceError, finite_time, positive};
+use crate::error::{DeviceError, finite_time};
 
 /// Report id of translation (and, with a 12-byte payload, rotation) reports.
 pub const REPORT_TRANSLATION: u8 = 1;
@@ -186,7 +186,7 @@ impl SpaceMouseConfig {
     /// The device's limits: zero force and torque (no force output), the workspace and rate.
     ///
     /// # Errors
-    /// [`DeviceError::Limits`] for an empty workspace or a bad rate.
+    /// [`DeviceError::Parameter`] for an empty workspace or a bad rate.
     pub fn limits(&self) -> Result<DeviceLimits, DeviceError> {
         Ok(DeviceLimits::new(
             0.0,
@@ -198,24 +198,24 @@ impl SpaceMouseConfig {
     }
 
     fn validate(&self) -> Result<DeviceLimits, DeviceError> {
-        positive("full_scale_counts", self.full_scale_counts)?;
-        positive("max_offset_m", self.max_offset_m)?;
-        positive("max_angle_rad", self.max_angle_rad)?;
-        positive("max_speed_m_s", self.max_speed_m_s)?;
-        positive("max_rate_rad_s", self.max_rate_rad_s)?;
+        haptic_core::check::positive("full_scale_counts", self.full_scale_counts)?;
+        haptic_core::check::positive("max_offset_m", self.max_offset_m)?;
+        haptic_core::check::positive("max_angle_rad", self.max_angle_rad)?;
+        haptic_core::check::positive("max_speed_m_s", self.max_speed_m_s)?;
+        haptic_core::check::positive("max_rate_rad_s", self.max_rate_rad_s)?;
         if !(0.0..1.0).contains(&self.deadband) {
-            return Err(DeviceError::Parameter {
+            return Err(DeviceError::Parameter(haptic_core::CoreError::OutOfRange {
                 what: "deadband",
                 value: self.deadband,
                 expected: "in [0, 1)",
-            });
+            }));
         }
         if let Some(&s) = self.axis_signs.iter().find(|s| !s.is_finite()) {
-            return Err(DeviceError::Parameter {
+            return Err(DeviceError::Parameter(haptic_core::CoreError::OutOfRange {
                 what: "axis_signs",
                 value: s,
                 expected: "finite",
-            });
+            }));
         }
         if !self.home.is_finite() {
             return Err(DeviceError::NonFinite { what: "home pose" });
@@ -243,7 +243,7 @@ impl SpaceMouseTracker {
     ///
     /// # Errors
     /// [`DeviceError::Parameter`] for a non-positive scale or gain, a dead band outside
-    /// `[0, 1)` or non-finite signs; [`DeviceError::Limits`] for an empty workspace.
+    /// `[0, 1)` or non-finite signs; [`DeviceError::Parameter`] for an empty workspace.
     pub fn new(config: SpaceMouseConfig) -> Result<Self, DeviceError> {
         let limits = config.validate()?;
         let mut pose = config.home;

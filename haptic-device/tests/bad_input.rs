@@ -16,7 +16,7 @@ fn scaling_rejects_bad_scales_and_origins() {
         assert!(
             matches!(
                 scaled().with_torque_scale(bad),
-                Err(DeviceError::Parameter { .. })
+                Err(DeviceError::Parameter(_))
             ),
             "torque scale {bad}"
         );

@@ -27,7 +27,8 @@ use haptic_core::{
 };
 use nalgebra::{Matrix3x4, Matrix4, UnitQuaternion};
 
-use crate::error::{DynamicsError, finite};
+use crate::error::DynamicsError;
+use haptic_core::check;
 
 /// Device saturation (eqs. 26–27): the largest force and torque the coupling springs produce.
 ///
@@ -53,7 +54,7 @@ impl Saturation {
     /// Limits of `max_force_n` (N) and `max_torque_nm` (N m), linear up to 80 % of them.
     ///
     /// # Errors
-    /// [`DynamicsError::NonFinite`] or [`DynamicsError::OutOfRange`] for limits that are not
+    /// [`DynamicsError::Core`] ([`haptic_core::check`]) for limits that are not
     /// positive and finite.
     pub fn new(max_force_n: Real, max_torque_nm: Real) -> Result<Self, DynamicsError> {
         Self::with_linear_fraction(max_force_n, max_torque_nm, Self::DEFAULT_LINEAR_FRACTION)
@@ -62,7 +63,7 @@ impl Saturation {
     /// As [`Saturation::new`] with an explicit linear fraction `α`.
     ///
     /// # Errors
-    /// As [`Saturation::new`], and [`DynamicsError::OutOfRange`] unless `0 < α < 1`.
+    /// As [`Saturation::new`], and [`DynamicsError::Core`] unless `0 < α < 1`.
     pub fn with_linear_fraction(
         max_force_n: Real,
         max_torque_nm: Real,
@@ -82,43 +83,18 @@ impl Saturation {
     /// # Errors
     /// As [`Saturation::with_linear_fraction`].
     pub fn validate(&self) -> Result<(), DynamicsError> {
-        positive(self.max_force_n, "max_force_n")?;
-        positive(self.max_torque_nm, "max_torque_nm")?;
-        let a = finite(self.linear_fraction, "linear_fraction")?;
+        check::positive("saturation.max_force_n", self.max_force_n)?;
+        check::positive("saturation.max_torque_nm", self.max_torque_nm)?;
+        let a = check::finite("saturation.linear_fraction", self.linear_fraction)?;
         if !(a > 0.0 && a < 1.0) {
-            return Err(DynamicsError::OutOfRange {
-                what: "linear_fraction",
+            return Err(haptic_core::CoreError::OutOfRange {
+                what: "saturation.linear_fraction",
                 value: a,
                 expected: "strictly between 0 and 1",
-            });
+            }
+            .into());
         }
         Ok(())
-    }
-}
-
-fn positive(v: Real, what: &'static str) -> Result<Real, DynamicsError> {
-    let v = finite(v, what)?;
-    if v > 0.0 {
-        Ok(v)
-    } else {
-        Err(DynamicsError::OutOfRange {
-            what,
-            value: v,
-            expected: "> 0",
-        })
-    }
-}
-
-fn non_negative(v: Real, what: &'static str) -> Result<Real, DynamicsError> {
-    let v = finite(v, what)?;
-    if v >= 0.0 {
-        Ok(v)
-    } else {
-        Err(DynamicsError::OutOfRange {
-            what,
-            value: v,
-            expected: ">= 0",
-        })
     }
 }
 
@@ -146,11 +122,11 @@ impl SplineSpring {
     /// A spring of stiffness `stiffness` saturating at `max` with linear fraction `alpha`.
     ///
     /// # Errors
-    /// [`DynamicsError::OutOfRange`] / [`DynamicsError::NonFinite`] unless stiffness and limit
-    /// are positive and `0 < alpha < 1`.
+    /// [`DynamicsError::Core`] ([`haptic_core::check`]) unless stiffness and limit are positive
+    /// and `0 < alpha < 1`.
     pub fn saturated(stiffness: Real, max: Real, alpha: Real) -> Result<Self, DynamicsError> {
-        positive(stiffness, "stiffness")?;
-        positive(max, "saturation limit")?;
+        check::positive("spring.stiffness", stiffness)?;
+        check::positive("spring.max", max)?;
         Saturation::with_linear_fraction(max, max, alpha)?;
         let d1 = alpha * max / stiffness;
         let d2 = (2.0 - alpha) * max / stiffness;
@@ -247,7 +223,7 @@ impl CouplingParams {
     /// Validated parameters without saturation.
     ///
     /// # Errors
-    /// [`DynamicsError::NonFinite`] / [`DynamicsError::OutOfRange`] unless stiffnesses are
+    /// [`DynamicsError::Core`] ([`haptic_core::check`]) unless stiffnesses are
     /// positive and dampings non-negative.
     pub fn new(
         stiffness_n_per_m: Real,
@@ -277,15 +253,15 @@ impl CouplingParams {
     /// # Errors
     /// As [`CouplingParams::new`] and [`Saturation::validate`].
     pub fn validate(&self) -> Result<(), DynamicsError> {
-        positive(self.stiffness_n_per_m, "stiffness_n_per_m")?;
-        non_negative(self.damping_ns_per_m, "damping_ns_per_m")?;
-        positive(
+        check::positive("coupling.stiffness_n_per_m", self.stiffness_n_per_m)?;
+        check::non_negative("coupling.damping_ns_per_m", self.damping_ns_per_m)?;
+        check::positive(
+            "coupling.angular_stiffness_nm_per_rad",
             self.angular_stiffness_nm_per_rad,
-            "angular_stiffness_nm_per_rad",
         )?;
-        non_negative(
+        check::non_negative(
+            "coupling.angular_damping_nms_per_rad",
             self.angular_damping_nms_per_rad,
-            "angular_damping_nms_per_rad",
         )?;
         if let Some(s) = &self.saturation {
             s.validate()?;
@@ -325,15 +301,17 @@ impl Grasp {
     /// Records the handle's placement relative to the tool at the moment of grasping (eq. 13).
     ///
     /// # Errors
-    /// [`DynamicsError::NonFinite`] if the tool state or the handle pose is not finite.
+    /// [`DynamicsError::Core`] ([`haptic_core::CoreError::NonFinite`]) if the tool state or the handle pose is not finite.
     pub fn new(tool: &ToolState, handle: &Pose) -> Result<Self, DynamicsError> {
         if !tool.is_finite() {
-            return Err(DynamicsError::NonFinite { what: "tool state" });
+            return Err(DynamicsError::Core(haptic_core::CoreError::NonFinite {
+                what: "tool state",
+            }));
         }
         if !handle.is_finite() {
-            return Err(DynamicsError::NonFinite {
+            return Err(DynamicsError::Core(haptic_core::CoreError::NonFinite {
                 what: "device pose",
-            });
+            }));
         }
         let inv = tool.q.inverse();
         Ok(Self {
@@ -345,10 +323,12 @@ impl Grasp {
     /// A grasp from its parts (`r_c` in m, body frame).
     ///
     /// # Errors
-    /// [`DynamicsError::NonFinite`] for NaN or Inf.
+    /// [`DynamicsError::Core`] ([`haptic_core::CoreError::NonFinite`]) for NaN or Inf.
     pub fn from_parts(r_c: Vec3, q_c: UnitQuaternion<Real>) -> Result<Self, DynamicsError> {
         if !r_c.iter().chain(q_c.coords.iter()).all(|v| v.is_finite()) {
-            return Err(DynamicsError::NonFinite { what: "grasp" });
+            return Err(DynamicsError::Core(haptic_core::CoreError::NonFinite {
+                what: "grasp",
+            }));
         }
         Ok(Self { r_c, q_c })
     }
@@ -478,24 +458,24 @@ impl VirtualCoupling {
     /// Takes a new device reading. On error the previous reading is kept.
     ///
     /// # Errors
-    /// [`DynamicsError::NonFinite`] with `what = "device pose"`, `"device twist"` or
+    /// [`DynamicsError::Core`] ([`haptic_core::CoreError::NonFinite`]) with `what = "device pose"`, `"device twist"` or
     /// `"device time stamp"` for NaN or Inf; [`DynamicsError::Core`] with
     /// [`haptic_core::CoreError::NonUnitQuaternion`] for an orientation off unit by more than 1e-6.
     pub fn set_device(&mut self, device: &DeviceState) -> Result<(), DynamicsError> {
         if !device.pose.is_finite() {
-            return Err(DynamicsError::NonFinite {
+            return Err(DynamicsError::Core(haptic_core::CoreError::NonFinite {
                 what: "device pose",
-            });
+            }));
         }
         if !device.twist.is_finite() {
-            return Err(DynamicsError::NonFinite {
+            return Err(DynamicsError::Core(haptic_core::CoreError::NonFinite {
                 what: "device twist",
-            });
+            }));
         }
         if !device.timestamp_s.is_finite() {
-            return Err(DynamicsError::NonFinite {
+            return Err(DynamicsError::Core(haptic_core::CoreError::NonFinite {
                 what: "device time stamp",
-            });
+            }));
         }
         let norm = device.pose.orientation.coords.norm();
         if (norm - 1.0).abs() > 1e-6 {
@@ -670,7 +650,7 @@ impl ForceModel for VirtualCoupling {
 mod tests {
     use super::*;
     use crate::testutil::{FD_RTOL, arb_body, arb_raw_state, column_check, random_unit};
-    use haptic_core::{CoreError, Twist};
+    use haptic_core::Twist;
     use nalgebra::Vector3;
     use proptest::prelude::*;
 
@@ -955,34 +935,36 @@ mod tests {
         bad.pose.position.y = Real::NAN;
         assert!(matches!(
             c.set_device(&bad),
-            Err(DynamicsError::NonFinite {
+            Err(DynamicsError::Core(haptic_core::CoreError::NonFinite {
                 what: "device pose"
-            })
+            }))
         ));
         assert_eq!(c.device(), &device);
         let mut bad = device;
         bad.twist.angular.z = Real::INFINITY;
         assert!(matches!(
             c.set_device(&bad),
-            Err(DynamicsError::NonFinite {
+            Err(DynamicsError::Core(haptic_core::CoreError::NonFinite {
                 what: "device twist"
-            })
+            }))
         ));
         let mut bad = device;
         bad.pose.orientation =
             UnitQuaternion::new_unchecked(nalgebra::Quaternion::new(2.0, 0.0, 0.0, 0.0));
         assert!(matches!(
             c.set_device(&bad),
-            Err(DynamicsError::Core(CoreError::NonUnitQuaternion { .. }))
+            Err(DynamicsError::Core(
+                haptic_core::CoreError::NonUnitQuaternion { .. }
+            ))
         ));
         let mut bad = device;
         bad.pose.orientation =
             UnitQuaternion::new_unchecked(nalgebra::Quaternion::new(Real::NAN, 0.0, 0.0, 0.0));
         assert!(matches!(
             VirtualCoupling::grasping(CouplingParams::default(), &tool, &bad),
-            Err(DynamicsError::NonFinite {
+            Err(DynamicsError::Core(haptic_core::CoreError::NonFinite {
                 what: "device pose"
-            })
+            }))
         ));
     }
 
@@ -990,44 +972,44 @@ mod tests {
     fn parameters_are_validated() {
         assert!(matches!(
             CouplingParams::new(0.0, 1.0, 0.6, 0.0),
-            Err(DynamicsError::OutOfRange {
-                what: "stiffness_n_per_m",
+            Err(DynamicsError::Core(haptic_core::CoreError::OutOfRange {
+                what: "coupling.stiffness_n_per_m",
                 ..
-            })
+            }))
         ));
         assert!(matches!(
             CouplingParams::new(200.0, -1.0, 0.6, 0.0),
-            Err(DynamicsError::OutOfRange {
-                what: "damping_ns_per_m",
+            Err(DynamicsError::Core(haptic_core::CoreError::OutOfRange {
+                what: "coupling.damping_ns_per_m",
                 ..
-            })
+            }))
         ));
         assert!(matches!(
             CouplingParams::new(200.0, 1.0, Real::NAN, 0.0),
-            Err(DynamicsError::NonFinite {
-                what: "angular_stiffness_nm_per_rad"
-            })
+            Err(DynamicsError::Core(haptic_core::CoreError::NonFinite {
+                what: "coupling.angular_stiffness_nm_per_rad"
+            }))
         ));
         assert!(matches!(
             CouplingParams::new(200.0, 1.0, 0.6, -1e-3),
-            Err(DynamicsError::OutOfRange {
-                what: "angular_damping_nms_per_rad",
+            Err(DynamicsError::Core(haptic_core::CoreError::OutOfRange {
+                what: "coupling.angular_damping_nms_per_rad",
                 ..
-            })
+            }))
         ));
         assert!(matches!(
             Saturation::new(0.0, 1.0),
-            Err(DynamicsError::OutOfRange {
-                what: "max_force_n",
+            Err(DynamicsError::Core(haptic_core::CoreError::OutOfRange {
+                what: "saturation.max_force_n",
                 ..
-            })
+            }))
         ));
         assert!(matches!(
             Saturation::with_linear_fraction(1.0, 1.0, 1.0),
-            Err(DynamicsError::OutOfRange {
-                what: "linear_fraction",
+            Err(DynamicsError::Core(haptic_core::CoreError::OutOfRange {
+                what: "saturation.linear_fraction",
                 ..
-            })
+            }))
         ));
         let p = CouplingParams::default().with_saturation(Some(Saturation {
             max_force_n: 1.0,
@@ -1037,10 +1019,10 @@ mod tests {
         let (_, tool, device) = still_tool();
         assert!(matches!(
             VirtualCoupling::grasping(p, &tool, &device),
-            Err(DynamicsError::OutOfRange {
-                what: "max_torque_nm",
+            Err(DynamicsError::Core(haptic_core::CoreError::OutOfRange {
+                what: "saturation.max_torque_nm",
                 ..
-            })
+            }))
         ));
         let d = CouplingParams::default();
         assert_eq!(

@@ -33,12 +33,14 @@ impl Gravity {
     /// A validated acceleration (m/s²).
     ///
     /// # Errors
-    /// [`DynamicsError::NonFinite`] for NaN or Inf.
+    /// [`DynamicsError::Core`] ([`haptic_core::CoreError::NonFinite`]) for NaN or Inf.
     pub fn new(g_m_s2: Vec3) -> Result<Self, DynamicsError> {
         if g_m_s2.iter().all(|v| v.is_finite()) {
             Ok(Self { g_m_s2 })
         } else {
-            Err(DynamicsError::NonFinite { what: "gravity" })
+            Err(DynamicsError::Core(haptic_core::CoreError::NonFinite {
+                what: "gravity",
+            }))
         }
     }
 }
@@ -183,7 +185,9 @@ mod tests {
     fn gravity_is_validated_and_has_no_jacobian() {
         assert!(matches!(
             Gravity::new(Vec3::new(0.0, Real::NAN, 0.0)),
-            Err(DynamicsError::NonFinite { what: "gravity" })
+            Err(DynamicsError::Core(haptic_core::CoreError::NonFinite {
+                what: "gravity"
+            }))
         ));
         let body = RigidBody::sphere(2.0, 0.1).unwrap();
         let mut g = Gravity::earth();

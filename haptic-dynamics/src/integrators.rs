@@ -23,6 +23,7 @@ use haptic_core::{
 
 use crate::eom::{quaternion_jacobian_blocks, state_derivative, system_jacobian};
 use crate::error::DynamicsError;
+use haptic_core::check;
 
 /// Pivots of the LU factorisation smaller than this fraction of the largest one mean that
 /// `I - h J` is singular to working precision.
@@ -358,21 +359,17 @@ impl NewtonBackwardEuler {
     /// A validated configuration.
     ///
     /// # Errors
-    /// [`DynamicsError::OutOfRange`] unless `tolerance > 0` (finite) and `max_iterations >= 1`.
+    /// [`DynamicsError::Core`] ([`haptic_core::check`]) unless `tolerance > 0` (finite) and
+    /// `max_iterations >= 1`.
     pub fn new(tolerance: Real, max_iterations: usize) -> Result<Self, DynamicsError> {
-        if !(tolerance > 0.0 && tolerance.is_finite()) {
-            return Err(DynamicsError::OutOfRange {
-                what: "tolerance",
-                value: tolerance,
-                expected: "positive and finite",
-            });
-        }
+        check::positive("newton.tolerance", tolerance)?;
         if max_iterations == 0 {
-            return Err(DynamicsError::OutOfRange {
-                what: "max_iterations",
+            return Err(haptic_core::CoreError::OutOfRange {
+                what: "newton.max_iterations",
                 value: 0.0,
                 expected: ">= 1",
-            });
+            }
+            .into());
         }
         Ok(Self {
             tolerance,
@@ -381,7 +378,7 @@ impl NewtonBackwardEuler {
     }
 }
 
-/// How many times [`NewtonBackwardEuler`] halves a step that does not decrease the residual.
+/// How many times [`NewtonBackwardEuler`] halves a step that fails the monotonicity test.
 const LINE_SEARCH_HALVINGS: i32 = 4;
 
 /// The largest block-relative size of `delta` (blocks x, q, P, L) against `a` and `b`.

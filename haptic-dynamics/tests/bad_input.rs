@@ -11,16 +11,22 @@ fn grasp_and_coupling_reject_bad_input() {
     nan_tool.x.y = f64::NAN;
     assert!(matches!(
         Grasp::new(&nan_tool, &Pose::identity()),
-        Err(DynamicsError::NonFinite { .. })
+        Err(DynamicsError::Core(
+            haptic_core::CoreError::NonFinite { .. }
+        ))
     ));
     let nan_handle = Pose::from_position(Vec3::new(f64::INFINITY, 0.0, 0.0));
     assert!(matches!(
         Grasp::new(&tool, &nan_handle),
-        Err(DynamicsError::NonFinite { .. })
+        Err(DynamicsError::Core(
+            haptic_core::CoreError::NonFinite { .. }
+        ))
     ));
     assert!(matches!(
         Grasp::from_parts(Vec3::new(f64::NAN, 0.0, 0.0), UnitQuaternion::identity()),
-        Err(DynamicsError::NonFinite { .. })
+        Err(DynamicsError::Core(
+            haptic_core::CoreError::NonFinite { .. }
+        ))
     ));
     let grasp = Grasp::new(&tool, &Pose::identity()).unwrap();
     let device = DeviceState::at_rest(Pose::identity(), 0.0);
@@ -30,12 +36,16 @@ fn grasp_and_coupling_reject_bad_input() {
     };
     assert!(matches!(
         VirtualCoupling::new(bad_params, grasp, &device),
-        Err(DynamicsError::OutOfRange { .. })
+        Err(DynamicsError::Core(
+            haptic_core::CoreError::OutOfRange { .. }
+        ))
     ));
     let mut nan_device = device;
     nan_device.twist.linear.x = f64::NAN;
     assert!(matches!(
         VirtualCoupling::new(CouplingParams::default(), grasp, &nan_device),
-        Err(DynamicsError::NonFinite { .. })
+        Err(DynamicsError::Core(
+            haptic_core::CoreError::NonFinite { .. }
+        ))
     ));
 }

@@ -386,17 +386,17 @@ fn bad_input_gives_typed_errors() {
     ));
     assert!(matches!(
         NewtonBackwardEuler::new(0.0, 5),
-        Err(DynamicsError::OutOfRange {
-            what: "tolerance",
+        Err(DynamicsError::Core(haptic_core::CoreError::OutOfRange {
+            what: "newton.tolerance",
             ..
-        })
+        }))
     ));
     assert!(matches!(
         NewtonBackwardEuler::new(1e-9, 0),
-        Err(DynamicsError::OutOfRange {
-            what: "max_iterations",
+        Err(DynamicsError::Core(haptic_core::CoreError::OutOfRange {
+            what: "newton.max_iterations",
             ..
-        })
+        }))
     ));
 }
 

@@ -162,13 +162,13 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
                  step for the NaN sample; handle at x = {:.1} mm, tool at x = {:.1} mm, last \
                  wrench sent {:.3} N",
                 summary.duration_s,
-                summary.nan_events,
+                summary.zero_force_steps,
                 d.last_pose.position.x * 1e3,
                 pipeline.haptic().tool().x.x * 1e3,
                 d.last_wrench.force.norm()
             );
             assert_eq!(kind, ErrorKind::Disconnected);
-            assert_eq!(summary.nan_events, 1);
+            assert_eq!(summary.zero_force_steps, 1);
             assert_eq!(
                 d.last_wrench,
                 Wrench::zero(),

@@ -80,7 +80,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         summary.clusters_max,
         summary.max_penetration_m * 1e3,
         summary.max_force_n,
-        summary.nan_events
+        summary.zero_force_steps
     );
     assert!(
         summary.clusters_max > 0,

@@ -74,4 +74,4 @@ pub use stages::{
     ContactStage, ContactUpdate, DeviceFailure, HapticStage, SafetyConfig, StepOutcome,
     ToolMessage, ZeroForceGuard,
 };
-pub use telemetry::{Snapshot, Summary};
+pub use telemetry::{RunMode, Snapshot, Summary};

@@ -18,7 +18,7 @@ use crate::stages::{
     ContactStage, ContactUpdate, DeviceFailure, HapticStage, SafetyConfig, ToolMessage,
     panic_message,
 };
-use crate::telemetry::{DurationHistogram, LiveTelemetry, Snapshot, Summary};
+use crate::telemetry::{DurationHistogram, LiveTelemetry, RunMode, Snapshot, Summary};
 
 /// Rates, tolerances and switches of a pipeline.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -388,12 +388,12 @@ impl<I: Integrator, B: CollisionBackend, C: ContactModel, D: Device> Pipeline<I,
         .map_err(|payload| panic_message(&*payload));
         drop(haptic);
         let simulated = self.haptic.stats.steps as Real * dt;
-        let mut summary = self.summarize("virtual-time", simulated, &stats);
+        let mut summary = self.summarize(RunMode::VirtualTime, simulated, &stats);
         summary.scheduling = "virtual time: single thread".into();
         finish(summary, outcome)
     }
 
-    fn summarize(&self, mode: &str, duration_s: Real, c: &ContactStats) -> Summary {
+    fn summarize(&self, mode: RunMode, duration_s: Real, c: &ContactStats) -> Summary {
         let h = &self.haptic.stats;
         let mut incidents = Vec::new();
         if let Some(p) = &c.panicked {
@@ -427,14 +427,14 @@ impl<I: Integrator, B: CollisionBackend, C: ContactModel, D: Device> Pipeline<I,
                 h.solver_failures
             ));
         }
-        if h.nan_events > h.solver_failures {
+        if h.zero_force_steps > h.solver_failures {
             incidents.push(format!(
                 "{} device readings were NaN or invalid: zero force sent",
-                h.nan_events - h.solver_failures
+                h.zero_force_steps - h.solver_failures
             ));
         }
         Summary {
-            mode: mode.into(),
+            mode,
             duration_s,
             haptic_steps: h.steps,
             haptic_rate_hz: if duration_s > 0.0 {
@@ -458,7 +458,7 @@ impl<I: Integrator, B: CollisionBackend, C: ContactModel, D: Device> Pipeline<I,
             max_coupling_deviation_m: h.max_coupling_deviation_m,
             max_force_n: h.max_force_n,
             saturation_events: h.saturation_events,
-            nan_events: h.nan_events,
+            zero_force_steps: h.zero_force_steps,
             solver_failures: h.solver_failures,
             contact_errors: c.errors,
             contact_stale_steps: h.stale_steps,
@@ -709,8 +709,8 @@ fn realtime_haptic_loop<I: Integrator, D: Device>(
         live.haptic_steps.store(k + 1, Ordering::Relaxed);
         live.time_s.store(now_s);
         live.max_force_n.store(haptic.stats.max_force_n);
-        live.nan_events
-            .store(haptic.stats.nan_events, Ordering::Relaxed);
+        live.zero_force_steps
+            .store(haptic.stats.zero_force_steps, Ordering::Relaxed);
         let after = Instant::now();
         if after > deadline {
             live.deadline_misses.fetch_add(1, Ordering::Relaxed);
@@ -921,7 +921,7 @@ where
         progress(&self.live.snapshot());
         // Rates over the haptic loop's own duration: the watcher notices the end up to a
         // tenth of a second late.
-        let mut summary = self.summarize("real-time", loop_s, &contact_stats);
+        let mut summary = self.summarize(RunMode::RealTime, loop_s, &contact_stats);
         summary.realtime_scheduling_granted = granted;
         summary.scheduling = if scheduling_wanted {
             notes

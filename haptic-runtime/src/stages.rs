@@ -208,8 +208,9 @@ pub struct HapticStats {
     pub max_coupling_deviation_m: Real,
     /// Commands clamped to the device limits.
     pub saturation_events: u64,
-    /// Zero-force steps for NaN or failed solves.
-    pub nan_events: u64,
+    /// Steps that sent zero force: a NaN reading or state, or a failed solve (those are also
+    /// counted in `solver_failures`).
+    pub zero_force_steps: u64,
     /// Integration failures (zero force sent, tool put back at the handle).
     pub solver_failures: u64,
     /// Steps with a stale (faded) contact model.
@@ -456,7 +457,7 @@ impl<I: Integrator, D: Device> HapticStage<I, D> {
     }
 
     fn zero_force_step(&mut self, solver_failure: bool) -> Result<StepOutcome, DeviceFailure> {
-        self.stats.nan_events += 1;
+        self.stats.zero_force_steps += 1;
         if solver_failure {
             self.stats.solver_failures += 1;
         }

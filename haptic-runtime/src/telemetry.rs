@@ -133,8 +133,8 @@ pub struct LiveTelemetry {
     pub clusters: AtomicU64,
     /// Deadline misses so far.
     pub deadline_misses: AtomicU64,
-    /// NaN or failed-solve events so far.
-    pub nan_events: AtomicU64,
+    /// Steps that sent zero force (a NaN reading or state, or a failed solve) so far.
+    pub zero_force_steps: AtomicU64,
     /// Set when the contact thread has died.
     pub contact_thread_dead: AtomicBool,
 }
@@ -158,8 +158,8 @@ pub struct Snapshot {
     pub clusters: u64,
     /// Deadline misses so far.
     pub deadline_misses: u64,
-    /// NaN or failed-solve events so far.
-    pub nan_events: u64,
+    /// Steps that sent zero force (a NaN reading or state, or a failed solve) so far.
+    pub zero_force_steps: u64,
 }
 
 impl LiveTelemetry {
@@ -174,16 +174,38 @@ impl LiveTelemetry {
             raw_contacts: self.raw_contacts.load(Ordering::Relaxed),
             clusters: self.clusters.load(Ordering::Relaxed),
             deadline_misses: self.deadline_misses.load(Ordering::Relaxed),
-            nan_events: self.nan_events.load(Ordering::Relaxed),
+            zero_force_steps: self.zero_force_steps.load(Ordering::Relaxed),
         }
+    }
+}
+
+/// How a run was clocked.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Default)]
+#[serde(rename_all = "kebab-case")]
+pub enum RunMode {
+    /// Haptic and contact threads on the wall clock ([`crate::Pipeline::run_realtime`]);
+    /// serialized `"real-time"`.
+    RealTime,
+    /// One thread, simulated time, deterministic ([`crate::Pipeline::run_virtual`]);
+    /// serialized `"virtual-time"`.
+    #[default]
+    VirtualTime,
+}
+
+impl std::fmt::Display for RunMode {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(match self {
+            RunMode::RealTime => "real-time",
+            RunMode::VirtualTime => "virtual-time",
+        })
     }
 }
 
 /// The end-of-run summary. Serialized as the demo's `--json` output.
 #[derive(Debug, Clone, PartialEq, Serialize, Default)]
 pub struct Summary {
-    /// `"real-time"` or `"virtual-time"`.
-    pub mode: String,
+    /// How the run was clocked.
+    pub mode: RunMode,
     /// Duration of the run (s, wall or simulated).
     pub duration_s: Real,
     /// Haptic steps done.
@@ -223,7 +245,7 @@ pub struct Summary {
     /// Commands clamped to the device limits.
     pub saturation_events: u64,
     /// Steps that sent zero force because of a NaN (device or state) or a failed solve.
-    pub nan_events: u64,
+    pub zero_force_steps: u64,
     /// Integration failures among those.
     pub solver_failures: u64,
     /// Contact model or back-end errors (that update was dropped).

@@ -239,10 +239,10 @@ fn print_summary(s: &Summary) {
         s.max_coupling_deviation_m * 1e3
     );
     println!(
-        "safety        {} NaN/zero-force steps, {} solver failures, {} contact errors",
-        s.nan_events, s.solver_failures, s.contact_errors
+        "safety        {} zero-force steps (NaN or failed solve), {} solver failures, {} contact errors",
+        s.zero_force_steps, s.solver_failures, s.contact_errors
     );
-    if s.mode == "real-time" {
+    if s.mode == haptic_runtime::RunMode::RealTime {
         println!(
             "scheduling    real-time scheduling {}; {}",
             if s.realtime_scheduling_granted {

@@ -103,7 +103,8 @@ where
 /// run its peak-to-peak variation is under half its mean plus 0.1 N (sustained oscillation or
 /// growth fails this).
 pub fn is_stable(summary: &Summary, series: &Series) -> bool {
-    if summary.nan_events > 0 || summary.solver_failures > 0 || summary.saturation_events > 0 {
+    if summary.zero_force_steps > 0 || summary.solver_failures > 0 || summary.saturation_events > 0
+    {
         return false;
     }
     if series

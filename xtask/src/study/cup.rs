@@ -153,7 +153,7 @@ pub fn run(args: &crate::OutArgs) -> anyhow::Result<()> {
             "max_coupling_deviation_m": r.summary.max_coupling_deviation_m,
             "raw_contacts_max": r.summary.raw_contacts_max,
             "clusters_max": r.summary.clusters_max,
-            "nan_events": r.summary.nan_events,
+            "zero_force_steps": r.summary.zero_force_steps,
         });
         println!(
             "{:<26} stable {:<5} max penetration {:.3} mm, RMS coupling force free {:.3} N / contact {:.3} N",

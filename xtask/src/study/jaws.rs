@@ -146,7 +146,7 @@ fn run_one(
         "max_coupling_force_n": s.max_force_n,
         "max_coupling_deviation_m": s.max_coupling_deviation_m,
         "contact_updates": s.contact_updates,
-        "nan_events": s.nan_events,
+        "zero_force_steps": s.zero_force_steps,
         "first_contact_s": r.first_contact_s,
     });
     println!(
