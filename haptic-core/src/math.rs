@@ -6,7 +6,9 @@
 //! components, so that its partials `R_k = ∂R/∂q_k` are exact derivatives of what the dynamics
 //! evaluate (paper eqs. 8–10, differentiated "entry by entry").
 
-use nalgebra::{Matrix3, Matrix4, Matrix4x3, SMatrix, SVector, Vector3, Vector4};
+use nalgebra::{
+    Matrix3, Matrix3x4, Matrix4, Matrix4x3, SMatrix, SVector, UnitQuaternion, Vector3, Vector4,
+};
 
 /// The scalar type of the whole workspace.
 pub type Real = f64;
@@ -95,6 +97,53 @@ pub fn all_finite<const R: usize, const C: usize>(m: &SMatrix<Real, R, C>) -> bo
     m.iter().all(|v| v.is_finite())
 }
 
+/// `θ u` of the rotation `p` (any non-zero scale), shortest arc, and its derivative w.r.t. the
+/// four components of `p` (3×4; eqs. 24–25). Used by the virtual coupling's rotational spring (eq. 16).
+///
+/// With `p = ±(w, v)` flipped so that `w >= 0`: `θ u = g v` with `g = 2 atan2(|v|, w) / |v|`,
+/// `∂(θu)/∂w = -2 v / |p|²`, `∂(θu)/∂v = g I + h v vᵀ`, `h = (∂g/∂|v|)/|v|`. For
+/// `|v| < 10⁻² w` (θ below about 1.1°) `g` and `h` use their series in `t = |v|²/w²`, which
+/// avoids `0/0` at `θ = 0`. Near `θ = π` (`w → 0`) the closed forms are regular; `θ u` itself
+/// jumps from `π u` to `-π u` when `w` changes sign, as any shortest-arc map must.
+pub fn rotation_vector(p: &Quat4) -> (Vec3, Matrix3x4<Real>) {
+    let sign = if p[0] < 0.0 { -1.0 } else { 1.0 };
+    let w = sign * p[0];
+    let v = sign * Vec3::new(p[1], p[2], p[3]);
+    let n2 = v.norm_squared();
+    let s = n2 + w * w;
+    if !(s > 0.0 && s.is_finite()) {
+        return (Vec3::zeros(), Matrix3x4::zeros());
+    }
+    let n = n2.sqrt();
+    let (g, h) = if n < 1e-2 * w {
+        let t = n2 / (w * w);
+        let g = (2.0 / w) * (1.0 + t * (-1.0 / 3.0 + t * (1.0 / 5.0 + t * (-1.0 / 7.0 + t / 9.0))));
+        let h = (2.0 / (w * w * w))
+            * (-2.0 / 3.0 + t * (4.0 / 5.0 + t * (-6.0 / 7.0 + t * (8.0 / 9.0 - t * 10.0 / 11.0))));
+        (g, h)
+    } else {
+        let a = n.atan2(w);
+        (2.0 * a / n, 2.0 * (w / (n2 * s) - a / (n2 * n)))
+    };
+    let phi = g * v;
+    let mut jac = Matrix3x4::zeros();
+    jac.set_column(0, &(v * (-2.0 * sign / s)));
+    let dv = (Mat3::identity() * g + h * v * v.transpose()) * sign;
+    jac.fixed_view_mut::<3, 3>(0, 1).copy_from(&dv);
+    (phi, jac)
+}
+
+/// The matrix `M(a)` of left multiplication, `a ⊗ b = M(a) b`, quaternions `(w, x, y, z)`.
+pub fn left_product_matrix(a: &Quat4) -> Matrix4<Real> {
+    let (w, x, y, z) = (a[0], a[1], a[2], a[3]);
+    Matrix4::new(w, -x, -y, -z, x, w, -z, y, y, z, w, -x, z, -y, x, w)
+}
+
+/// The components `(w, x, y, z)` of a unit quaternion, as a 4-vector.
+pub fn quat4(q: &UnitQuaternion<Real>) -> Quat4 {
+    Quat4::new(q.w, q.i, q.j, q.k)
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -145,5 +194,30 @@ mod tests {
         let a = Vec3::new(1.0, 2.0, 3.0);
         let b = Vec3::new(-0.5, 0.25, 4.0);
         assert!((skew(&a) * b - a.cross(&b)).norm() < 1e-15);
+    }
+
+    #[test]
+    fn rotation_vector_matches_nalgebra_and_takes_the_short_arc() {
+        for (axis, angle) in [
+            (Vec3::new(1.0, 2.0, -0.5), 0.3),
+            (Vec3::new(0.0, 0.0, 1.0), 3.0),
+            (Vec3::new(-1.0, 0.2, 0.1), 1e-7),
+        ] {
+            let q = UnitQuaternion::from_axis_angle(&nalgebra::Unit::new_normalize(axis), angle);
+            let (phi, _) = rotation_vector(&quat4(&q));
+            assert!(
+                (phi - q.scaled_axis()).norm() < 1e-14,
+                "{phi} vs {}",
+                q.scaled_axis()
+            );
+            // -q is the same rotation: same vector, and a scaled quaternion too.
+            let (phi2, _) = rotation_vector(&(-quat4(&q) * 1.7));
+            assert!((phi2 - phi).norm() < 1e-14);
+        }
+        // A rotation by 350° about z is -10° about z.
+        let q = UnitQuaternion::from_axis_angle(&Vec3::z_axis(), 350f64.to_radians());
+        let (phi, _) = rotation_vector(&quat4(&q));
+        assert!((phi - Vec3::new(0.0, 0.0, -10f64.to_radians())).norm() < 1e-12);
+        assert_eq!(rotation_vector(&Quat4::zeros()).0, Vec3::zeros());
     }
 }

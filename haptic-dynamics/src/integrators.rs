@@ -292,15 +292,17 @@ impl Integrator for Rk4 {
     }
 }
 
-/// Semi-implicit backward Euler (eqs. 4–5): one linearized solve
+/// The paper's semi-implicit (linearized) backward Euler, eqs. 4–5: one linearized solve
 /// `(I - h J) Δy = h f(y₀)`, `J = ∂f/∂y` at `y₀`, `y₁ = y₀ + Δy`. First order, unconditionally
-/// stable for the linear coupling, one force-and-Jacobian evaluation and one 13×13 LU per step.
+/// stable for the linear coupling, one force-and-Jacobian evaluation and one 13×13 solve per
+/// step. It is backward Euler's first Newton iterate; [`NewtonBackwardEuler`] iterates to the
+/// true backward Euler step. Named `backward_euler` (or `be`) on command lines and in JSON.
 #[derive(Debug, Clone, Copy, Default)]
-pub struct BackwardEuler;
+pub struct LinearizedBackwardEuler;
 
-impl Integrator for BackwardEuler {
+impl Integrator for LinearizedBackwardEuler {
     fn name(&self) -> &'static str {
-        IntegratorKind::BackwardEuler.name()
+        IntegratorKind::LinearizedBackwardEuler.name()
     }
 
     fn uses_jacobian(&self) -> bool {
@@ -334,7 +336,7 @@ impl Integrator for BackwardEuler {
 }
 
 /// Backward Euler solved by full Newton iteration: `y₁ = y₀ + h f(t + h, y₁)` to a tolerance.
-/// The accuracy reference for [`BackwardEuler`] (its first iterate is the semi-implicit step).
+/// The accuracy reference for [`LinearizedBackwardEuler`] (its first iterate is the semi-implicit step).
 ///
 /// Converged when, for each of the four blocks `x, q, P, L`, the last Newton update is at most
 /// `tolerance` times the block's size (max norm of `y₀` and the iterate).
@@ -472,8 +474,8 @@ impl Integrator for NewtonBackwardEuler {
 /// The integrators by name, for configuration files, command lines and sweeps.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
 pub enum IntegratorKind {
-    /// [`BackwardEuler`] (semi-implicit, the paper's method).
-    BackwardEuler,
+    /// [`LinearizedBackwardEuler`] (semi-implicit, the paper's method).
+    LinearizedBackwardEuler,
     /// [`NewtonBackwardEuler`] with its default tolerance.
     NewtonBackwardEuler,
     /// [`Rk4`].
@@ -485,7 +487,7 @@ pub enum IntegratorKind {
 impl IntegratorKind {
     /// Every kind, in the order the studies report them.
     pub const ALL: [IntegratorKind; 4] = [
-        IntegratorKind::BackwardEuler,
+        IntegratorKind::LinearizedBackwardEuler,
         IntegratorKind::NewtonBackwardEuler,
         IntegratorKind::Rk4,
         IntegratorKind::ForwardEuler,
@@ -495,7 +497,7 @@ impl IntegratorKind {
     /// `rk4`, `forward_euler`.
     pub fn name(self) -> &'static str {
         match self {
-            IntegratorKind::BackwardEuler => "backward_euler",
+            IntegratorKind::LinearizedBackwardEuler => "backward_euler",
             IntegratorKind::NewtonBackwardEuler => "newton_backward_euler",
             IntegratorKind::Rk4 => "rk4",
             IntegratorKind::ForwardEuler => "forward_euler",
@@ -506,14 +508,14 @@ impl IntegratorKind {
     pub fn is_implicit(self) -> bool {
         matches!(
             self,
-            IntegratorKind::BackwardEuler | IntegratorKind::NewtonBackwardEuler
+            IntegratorKind::LinearizedBackwardEuler | IntegratorKind::NewtonBackwardEuler
         )
     }
 
     /// A boxed integrator of this kind with default settings.
     pub fn boxed(self) -> Box<dyn Integrator + Send> {
         match self {
-            IntegratorKind::BackwardEuler => Box::new(BackwardEuler),
+            IntegratorKind::LinearizedBackwardEuler => Box::new(LinearizedBackwardEuler),
             IntegratorKind::NewtonBackwardEuler => Box::new(NewtonBackwardEuler::default()),
             IntegratorKind::Rk4 => Box::new(Rk4),
             IntegratorKind::ForwardEuler => Box::new(ForwardEuler),
@@ -530,12 +532,15 @@ impl fmt::Display for IntegratorKind {
 impl FromStr for IntegratorKind {
     type Err = DynamicsError;
 
-    /// Accepts `be`/`backward_euler`, `newton-be`/`newton_backward_euler`, `rk4`,
-    /// `fe`/`forward_euler`; case-insensitive, `-` and `_` interchangeable.
+    /// Accepts `be`/`backward_euler`/`linearized_backward_euler`,
+    /// `newton-be`/`newton_backward_euler`, `rk4`, `fe`/`forward_euler`; case-insensitive, `-` and
+    /// `_` interchangeable.
     fn from_str(s: &str) -> Result<Self, Self::Err> {
         let norm = s.trim().to_ascii_lowercase().replace('-', "_");
         match norm.as_str() {
-            "be" | "backward_euler" | "semi_implicit" => Ok(IntegratorKind::BackwardEuler),
+            "be" | "backward_euler" | "linearized_backward_euler" | "semi_implicit" => {
+                Ok(IntegratorKind::LinearizedBackwardEuler)
+            }
             "newton_be" | "newton_backward_euler" | "newton" => {
                 Ok(IntegratorKind::NewtonBackwardEuler)
             }

@@ -19,14 +19,14 @@
 //!
 //! ```
 //! use haptic_core::{DeviceState, Integrator, Pose, RigidBody, ToolState, Vec3};
-//! use haptic_dynamics::{BackwardEuler, CouplingParams, HapticForces, VirtualCoupling};
+//! use haptic_dynamics::{LinearizedBackwardEuler, CouplingParams, HapticForces, VirtualCoupling};
 //!
 //! let body = RigidBody::from_principal(0.001, [4e-6, 1e-7, 4e-6]).unwrap(); // a 1 g spoon
 //! let mut tool = ToolState::at_rest(&Pose::identity());
 //! let mut device = DeviceState::at_rest(Pose::from_position(Vec3::new(0.0, -0.03, 0.0)), 0.0);
 //! let coupling = VirtualCoupling::grasping(CouplingParams::default(), &tool, &device).unwrap();
 //! let mut forces = HapticForces::new(coupling);
-//! let mut be = BackwardEuler;
+//! let mut be = LinearizedBackwardEuler;
 //! for i in 0..1000 {
 //!     let t = i as f64 * 1e-3;
 //!     device.pose.position.x = 0.05 * (2.0 * t).sin(); // the hand moves
@@ -49,7 +49,6 @@ mod testutil;
 
 pub use coupling::{
     CouplingDeviation, CouplingParams, Grasp, Saturation, SplineSpring, VirtualCoupling,
-    rotation_vector,
 };
 pub use eom::{
     add_wrench_jacobian, free_jacobian, quaternion_jacobian_blocks, state_derivative,
@@ -57,7 +56,9 @@ pub use eom::{
 };
 pub use error::DynamicsError;
 pub use forces::{Gravity, HapticForces};
-pub use integrators::{BackwardEuler, ForwardEuler, IntegratorKind, NewtonBackwardEuler, Rk4};
+pub use integrators::{
+    ForwardEuler, IntegratorKind, LinearizedBackwardEuler, NewtonBackwardEuler, Rk4,
+};
 pub use penalty::{PenaltyModel, PenaltyParams};
 
 /// Compile-time check that the force model and integrators can move to the haptic thread.
@@ -65,6 +66,6 @@ const _: () = {
     const fn assert_send_sync<T: Send + Sync>() {}
     assert_send_sync::<HapticForces>();
     assert_send_sync::<VirtualCoupling>();
-    assert_send_sync::<BackwardEuler>();
+    assert_send_sync::<LinearizedBackwardEuler>();
     assert_send_sync::<NewtonBackwardEuler>();
 };

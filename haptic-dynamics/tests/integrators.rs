@@ -8,7 +8,7 @@ use haptic_core::{
     StateVector, ToolState, Twist, Vec3, Wrench, WrenchJacobian,
 };
 use haptic_dynamics::{
-    BackwardEuler, CouplingParams, DynamicsError, ForwardEuler, IntegratorKind,
+    CouplingParams, DynamicsError, ForwardEuler, IntegratorKind, LinearizedBackwardEuler,
     NewtonBackwardEuler, Rk4, VirtualCoupling,
 };
 use nalgebra::UnitQuaternion;
@@ -154,7 +154,7 @@ fn explicit_integrators_never_ask_for_a_jacobian() {
     let expected = [
         (IntegratorKind::ForwardEuler, 1, 0),
         (IntegratorKind::Rk4, 4, 0),
-        (IntegratorKind::BackwardEuler, 0, 1),
+        (IntegratorKind::LinearizedBackwardEuler, 0, 1),
     ];
     for (kind, wrenches, jacobians) in expected {
         let mut integ = kind.boxed();
@@ -248,7 +248,11 @@ fn observed_order_of_accuracy() {
     let reference = run(&mut Rk4, &body, &start, &mut forces, t_end, 20_000);
     let cases: [(Box<dyn Integrator>, Real, &[usize]); 4] = [
         (Box::new(ForwardEuler), 1.0, &[500, 1000, 2000, 4000]),
-        (Box::new(BackwardEuler), 1.0, &[500, 1000, 2000, 4000]),
+        (
+            Box::new(LinearizedBackwardEuler),
+            1.0,
+            &[500, 1000, 2000, 4000],
+        ),
         (
             Box::new(NewtonBackwardEuler::new(1e-13, 30).unwrap()),
             1.0,
@@ -360,7 +364,7 @@ fn bad_input_gives_typed_errors() {
         singular.jacobian[(i, 7 + i)] = 1.0 / h;
     }
     let implicit: [Box<dyn Integrator>; 2] = [
-        Box::new(BackwardEuler),
+        Box::new(LinearizedBackwardEuler),
         Box::new(NewtonBackwardEuler::default()),
     ];
     for mut integ in implicit {
@@ -403,8 +407,12 @@ fn bad_input_gives_typed_errors() {
 #[test]
 fn integrator_kinds_parse_and_name_themselves() {
     for (s, k) in [
-        ("be", IntegratorKind::BackwardEuler),
-        ("backward_euler", IntegratorKind::BackwardEuler),
+        ("be", IntegratorKind::LinearizedBackwardEuler),
+        ("backward_euler", IntegratorKind::LinearizedBackwardEuler),
+        (
+            "linearized-backward-euler",
+            IntegratorKind::LinearizedBackwardEuler,
+        ),
         ("newton-be", IntegratorKind::NewtonBackwardEuler),
         ("newton_backward_euler", IntegratorKind::NewtonBackwardEuler),
         ("RK4", IntegratorKind::Rk4),
@@ -431,7 +439,14 @@ fn backward_euler_is_stable_where_forward_euler_is_not() {
     // 1 g, thin about one axis (the spoon's weak axis).
     let body = RigidBody::from_principal(1e-3, [4e-6, 1e-7, 4e-6]).unwrap();
     let (start, mut forces) = coupled_start();
-    let s = run(&mut BackwardEuler, &body, &start, &mut forces, 0.5, 500);
+    let s = run(
+        &mut LinearizedBackwardEuler,
+        &body,
+        &start,
+        &mut forces,
+        0.5,
+        500,
+    );
     assert!(forces.0.deviation(&s).translation_m < 0.01);
     let (start, mut forces) = coupled_start();
     let mut fe = ForwardEuler;

@@ -12,7 +12,7 @@ use haptic_core::{
     Real, RigidBody, Vec3,
 };
 use haptic_device::{HandDevice, HandParams, ScriptedDevice, Waypoint};
-use haptic_dynamics::{BackwardEuler, PenaltyModel, PenaltyParams};
+use haptic_dynamics::{LinearizedBackwardEuler, PenaltyModel, PenaltyParams};
 use haptic_runtime::{ContactLatency, PipelineBuilder};
 
 /// A sphere of radius `radius_m` (the tool, centred on its centre of mass) over the floor `z = 0`.
@@ -74,7 +74,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     let hand = HandDevice::new(HandParams::default(), target, limits)?;
 
     let mut pipeline = PipelineBuilder::new(body, above)
-        .integrator(BackwardEuler)
+        .integrator(LinearizedBackwardEuler)
         .backend(SphereOnFloor { radius_m })
         .contact_model(PenaltyModel::new(PenaltyParams::default())?)
         .device(hand)

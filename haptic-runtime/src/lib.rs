@@ -29,7 +29,7 @@
 //!     RigidBody, Vec3,
 //! };
 //! use haptic_device::{ScriptedDevice, Waypoint};
-//! use haptic_dynamics::{BackwardEuler, PenaltyModel, PenaltyParams};
+//! use haptic_dynamics::{LinearizedBackwardEuler, PenaltyModel, PenaltyParams};
 //! use haptic_runtime::{ContactLatency, PipelineBuilder};
 //!
 //! struct Nothing;
@@ -48,7 +48,7 @@
 //!     limits,
 //! )?;
 //! let mut pipeline = PipelineBuilder::new(RigidBody::sphere(0.05, 0.02)?, Pose::identity())
-//!     .integrator(BackwardEuler)
+//!     .integrator(LinearizedBackwardEuler)
 //!     .backend(Nothing)
 //!     .contact_model(PenaltyModel::new(PenaltyParams::default())?)
 //!     .device(hand)

@@ -13,7 +13,7 @@ use common::BoxOnFloor;
 use haptic_core::{DeviceLimits, Integrator, Pose, RigidBody, Vec3};
 use haptic_device::{HandDevice, HandParams, ScriptedDevice, Waypoint};
 use haptic_dynamics::{
-    BackwardEuler, ForwardEuler, NewtonBackwardEuler, PenaltyModel, PenaltyParams, Rk4,
+    ForwardEuler, LinearizedBackwardEuler, NewtonBackwardEuler, PenaltyModel, PenaltyParams, Rk4,
 };
 use haptic_runtime::{PipelineBuilder, PipelineConfig};
 
@@ -83,7 +83,7 @@ fn steps_allocate<I: Integrator>(integrator: I) -> usize {
 
 #[test]
 fn haptic_steps_allocate_nothing() {
-    assert_eq!(steps_allocate(BackwardEuler), 0, "backward Euler");
+    assert_eq!(steps_allocate(LinearizedBackwardEuler), 0, "backward Euler");
     assert_eq!(
         steps_allocate(NewtonBackwardEuler::default()),
         0,

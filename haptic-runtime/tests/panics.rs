@@ -10,7 +10,7 @@ use haptic_core::{
     RigidBody, ToolState, Vec3, Wrench,
 };
 use haptic_device::HandDevice;
-use haptic_dynamics::{BackwardEuler, PenaltyModel, PenaltyParams};
+use haptic_dynamics::{LinearizedBackwardEuler, PenaltyModel, PenaltyParams};
 use haptic_runtime::{ContactLatency, Pipeline, PipelineBuilder, PipelineConfig, RuntimeError};
 
 /// The haptic step at which the faulty part panics: the box is pressed on the floor by then, so
@@ -85,7 +85,7 @@ impl Integrator for PanickingIntegrator {
         if self.steps == self.panic_at {
             panic!("injected integrator panic");
         }
-        BackwardEuler.step(body, state, t_s, dt_s, forces)
+        LinearizedBackwardEuler.step(body, state, t_s, dt_s, forces)
     }
 }
 
@@ -158,7 +158,7 @@ fn assert_stopped_at_zero_force<I: Integrator>(
 #[test]
 fn a_device_panic_in_virtual_time_ends_at_zero_force() {
     let device = RecordingDevice::new(pressing_hand(), Some(PANIC_AT_STEP));
-    let mut p = pipeline(BackwardEuler, device);
+    let mut p = pipeline(LinearizedBackwardEuler, device);
     let result = p.run_virtual(2.0, ContactLatency::FixedRate { rate_hz: 500.0 }, |_, _| {});
     assert_stopped_at_zero_force(result, &p, "injected device panic");
 }
@@ -177,7 +177,7 @@ fn an_integrator_panic_in_virtual_time_ends_at_zero_force() {
 #[test]
 fn a_device_panic_in_real_time_ends_at_zero_force() {
     let device = RecordingDevice::new(pressing_hand(), Some(PANIC_AT_STEP));
-    let mut p = pipeline(BackwardEuler, device);
+    let mut p = pipeline(LinearizedBackwardEuler, device);
     let result = p.run_realtime(2.0, |_| {});
     assert_stopped_at_zero_force(result, &p, "injected device panic");
 }
@@ -196,7 +196,10 @@ fn an_integrator_panic_in_real_time_ends_at_zero_force() {
 /// A panic in the caller's `progress` callback stops the haptic thread too, at zero force.
 #[test]
 fn a_progress_callback_panic_stops_the_run_at_zero_force() {
-    let mut p = pipeline(BackwardEuler, RecordingDevice::new(pressing_hand(), None));
+    let mut p = pipeline(
+        LinearizedBackwardEuler,
+        RecordingDevice::new(pressing_hand(), None),
+    );
     let started = std::time::Instant::now();
     let mut calls = 0;
     let caught = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| {

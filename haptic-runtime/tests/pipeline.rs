@@ -10,7 +10,7 @@ use common::{BoxOnFloor, HALF_M, Misbehaving, box_body, limits, pressing_hand};
 use haptic_collision::LodBackend;
 use haptic_core::{Pose, RigidBody, Vec3, device::ErrorKind};
 use haptic_device::{Fault, FaultInjector, ScriptedDevice};
-use haptic_dynamics::{BackwardEuler, PenaltyModel, PenaltyParams};
+use haptic_dynamics::{LinearizedBackwardEuler, PenaltyModel, PenaltyParams};
 use haptic_runtime::{
     ContactLatency, PipelineBuilder, PipelineConfig, RuntimeError, Scene, Summary,
 };
@@ -26,7 +26,7 @@ fn run_spoon_cup(seconds: f64) -> (Summary, Vec<f64>) {
     let parts = spoon_cup().assemble().unwrap();
     let backend = LodBackend::new(&parts.tool_mesh, &parts.obstacles).unwrap();
     let mut pipeline = PipelineBuilder::new(parts.body, parts.tool_pose)
-        .integrator(BackwardEuler)
+        .integrator(LinearizedBackwardEuler)
         .backend(backend)
         .contact_model(PenaltyModel::new(parts.penalty).unwrap())
         .device(parts.hand_device().unwrap())
@@ -83,12 +83,12 @@ fn identical_virtual_runs_give_identical_outputs() {
 fn box_pipeline<B: haptic_core::CollisionBackend, D: haptic_core::Device>(
     backend: B,
     device: D,
-) -> haptic_runtime::Pipeline<BackwardEuler, B, PenaltyModel, D> {
+) -> haptic_runtime::Pipeline<LinearizedBackwardEuler, B, PenaltyModel, D> {
     PipelineBuilder::new(
         box_body(),
         Pose::from_position(Vec3::new(0.0, 0.0, HALF_M + 0.01)),
     )
-    .integrator(BackwardEuler)
+    .integrator(LinearizedBackwardEuler)
     .backend(backend)
     .contact_model(PenaltyModel::new(PenaltyParams::default()).unwrap())
     .device(device)
@@ -264,7 +264,7 @@ fn bad_configuration_and_set_up_give_typed_errors() {
             box_body(),
             Pose::from_position(Vec3::new(0.0, 0.0, HALF_M + 0.01)),
         )
-        .integrator(BackwardEuler)
+        .integrator(LinearizedBackwardEuler)
         .backend(BoxOnFloor::new(HALF_M))
         .contact_model(PenaltyModel::new(PenaltyParams::default()).unwrap())
         .device(pressing_hand())
@@ -333,7 +333,7 @@ fn bad_configuration_and_set_up_give_typed_errors() {
     // A device whose first reading fails: a device error, before anything runs.
     let dead = FaultInjector::new(pressing_hand(), Fault::DisconnectAfter { reads: 0 });
     let r = PipelineBuilder::new(box_body(), Pose::identity())
-        .integrator(BackwardEuler)
+        .integrator(LinearizedBackwardEuler)
         .backend(BoxOnFloor::new(HALF_M))
         .contact_model(PenaltyModel::new(PenaltyParams::default()).unwrap())
         .device(dead)

@@ -8,7 +8,7 @@ use anyhow::{Context, bail};
 use haptic_collision::LodBackend;
 use haptic_core::{CollisionBackend, Integrator};
 use haptic_dynamics::{
-    BackwardEuler, ForwardEuler, IntegratorKind, NewtonBackwardEuler, PenaltyModel, Rk4,
+    ForwardEuler, IntegratorKind, LinearizedBackwardEuler, NewtonBackwardEuler, PenaltyModel, Rk4,
 };
 use haptic_runtime::{ContactLatency, PipelineBuilder, RuntimeError, Scene, SceneParts, Summary};
 use indicatif::{ProgressBar, ProgressStyle};
@@ -136,7 +136,9 @@ where
     B: CollisionBackend + Send,
 {
     match kind {
-        IntegratorKind::BackwardEuler => run_pipeline(BackwardEuler, backend, parts, args),
+        IntegratorKind::LinearizedBackwardEuler => {
+            run_pipeline(LinearizedBackwardEuler, backend, parts, args)
+        }
         IntegratorKind::NewtonBackwardEuler => {
             run_pipeline(NewtonBackwardEuler::default(), backend, parts, args)
         }

@@ -14,8 +14,8 @@ use haptic_collision::LodBackend;
 use haptic_core::{Device, DeviceLimits, DeviceState, Pose, QueryParams, Real, Vec3, Wrench};
 use haptic_device::{Fault, FaultInjector, ScriptedDevice, Waypoint};
 use haptic_dynamics::{
-    BackwardEuler, CouplingParams, ForwardEuler, NewtonBackwardEuler, PenaltyModel, PenaltyParams,
-    Rk4,
+    CouplingParams, ForwardEuler, LinearizedBackwardEuler, NewtonBackwardEuler, PenaltyModel,
+    PenaltyParams, Rk4,
 };
 use haptic_runtime::{ContactLatency, PipelineBuilder, Scene, SceneParts};
 use nalgebra::UnitQuaternion;
@@ -302,7 +302,7 @@ fn run_one(
         }};
     }
     let (summary, stats, nan_sent, over_sent, min_energy) = match c.integrator {
-        "backward_euler" => go!(BackwardEuler),
+        "backward_euler" => go!(LinearizedBackwardEuler),
         "newton_backward_euler" => go!(NewtonBackwardEuler::default()),
         "rk4" => go!(Rk4),
         _ => go!(ForwardEuler),

@@ -63,7 +63,7 @@ fn reference_states(
     if contact {
         forces.contact = s.table;
     }
-    let mut integ = IntegratorKind::BackwardEuler.boxed();
+    let mut integ = IntegratorKind::LinearizedBackwardEuler.boxed();
     let mut tool = s.start;
     let mut out = Vec::with_capacity(steps);
     for n in 0..steps {

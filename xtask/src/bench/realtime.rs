@@ -7,7 +7,7 @@ use std::process::{Child, Command, Stdio};
 
 use anyhow::Context;
 use haptic_collision::LodBackend;
-use haptic_dynamics::{BackwardEuler, PenaltyModel};
+use haptic_dynamics::{LinearizedBackwardEuler, PenaltyModel};
 use haptic_runtime::{PipelineBuilder, Scene, Summary};
 use serde::Serialize;
 
@@ -82,7 +82,7 @@ fn run_once(
     parts.config.realtime_scheduling = realtime;
     let backend = LodBackend::new(&parts.tool_mesh, &parts.obstacles)?;
     let mut pipeline = PipelineBuilder::new(parts.body, parts.tool_pose)
-        .integrator(BackwardEuler)
+        .integrator(LinearizedBackwardEuler)
         .backend(backend)
         .contact_model(PenaltyModel::new(parts.penalty)?)
         .device(parts.hand_device()?)

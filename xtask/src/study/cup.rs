@@ -4,7 +4,7 @@
 use haptic_collision::LodBackend;
 use haptic_core::{Pose, Real, Vec3};
 use haptic_device::{ScriptedDevice, Waypoint};
-use haptic_dynamics::{BackwardEuler, PenaltyParams, Rk4};
+use haptic_dynamics::{LinearizedBackwardEuler, PenaltyParams, Rk4};
 use haptic_runtime::{ContactLatency, Scene, SceneParts};
 use nalgebra::UnitQuaternion;
 use serde_json::json;
@@ -95,7 +95,7 @@ fn run_config(
         "rk4" => contact_run::run(&parts, Rk4, backend, device, DURATION_S, latency, Some(bar)),
         _ => contact_run::run(
             &parts,
-            BackwardEuler,
+            LinearizedBackwardEuler,
             backend,
             device,
             DURATION_S,

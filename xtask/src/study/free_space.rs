@@ -658,7 +658,11 @@ pub fn run(args: &crate::OutArgs) -> anyhow::Result<()> {
     );
     // Fig. 3: BE 1 g, RK4 70 g, FE 100 g.
     let figure = [
-        (IntegratorKind::BackwardEuler, 1e-3, "backward Euler, 1 g"),
+        (
+            IntegratorKind::LinearizedBackwardEuler,
+            1e-3,
+            "backward Euler, 1 g",
+        ),
         (IntegratorKind::Rk4, 70e-3, "RK4, 70 g"),
         (IntegratorKind::ForwardEuler, 100e-3, "forward Euler, 100 g"),
     ];

@@ -7,7 +7,7 @@ use haptic_collision::{LoadOptions, LodBackend, TriMesh};
 use haptic_core::LinearizationMode;
 use haptic_core::{DeviceLimits, Pose, QueryParams, Real, RigidBody, Vec3};
 use haptic_device::{ScaledDevice, ScriptedDevice, Waypoint};
-use haptic_dynamics::{BackwardEuler, CouplingParams, PenaltyParams};
+use haptic_dynamics::{CouplingParams, LinearizedBackwardEuler, PenaltyParams};
 use haptic_runtime::{ContactLatency, PipelineConfig, SceneParts};
 use serde_json::json;
 
@@ -119,7 +119,7 @@ fn run_one(
     };
     let r = contact_run::run(
         &parts,
-        BackwardEuler,
+        LinearizedBackwardEuler,
         backend.clone(),
         device(&parts)?,
         DURATION_S,
