@@ -1,0 +1,201 @@
+//! The pipeline: a builder that composes an [`Integrator`], a [`CollisionBackend`], a
+//! [`ContactModel`] (with clustering) and a [`Device`], and the two ways to run it.
+//!
+//! One file per part: `config` (rates, tolerances, latency), `builder` (the typestate
+//! builder), `virtual_time` (the deterministic single-thread run) and `real_time` (the haptic
+//! and contact threads).
+
+mod builder;
+mod config;
+mod real_time;
+mod virtual_time;
+
+pub use builder::PipelineBuilder;
+pub use config::{ContactLatency, PipelineConfig};
+pub use real_time::REALTIME_PRIORITY;
+
+use std::sync::atomic::Ordering;
+
+use haptic_core::{CollisionBackend, ContactModel, Device, Integrator, Real};
+
+use crate::error::RuntimeError;
+use crate::stages::{ContactStage, ContactUpdate, DeviceFailure, HapticStage};
+use crate::telemetry::{DurationHistogram, LiveTelemetry, RunMode, Snapshot, Summary};
+
+/// Contact-side statistics of a run.
+#[derive(Debug, Clone, Default)]
+struct ContactStats {
+    updates: u64,
+    latency: DurationHistogram,
+    broad_phase_only: u64,
+    raw_max: u64,
+    clusters_max: u64,
+    max_penetration_m: Real,
+    errors: u64,
+    first_error: Option<String>,
+    panicked: Option<String>,
+    first_update_s: Option<Real>,
+    last_update_s: Real,
+}
+
+impl ContactStats {
+    fn record(&mut self, u: &ContactUpdate, latency_s: Real, available_s: Real) {
+        self.updates += 1;
+        self.latency.record(latency_s);
+        if u.broad_phase_only {
+            self.broad_phase_only += 1;
+        }
+        self.raw_max = self.raw_max.max(u.raw_contacts as u64);
+        self.clusters_max = self.clusters_max.max(u.clusters as u64);
+        self.max_penetration_m = self.max_penetration_m.max(u.max_penetration_m);
+        self.first_update_s.get_or_insert(available_s);
+        self.last_update_s = available_s;
+    }
+
+    fn rate_hz(&self, duration_s: Real) -> Real {
+        if duration_s > 0.0 {
+            self.updates as Real / duration_s
+        } else {
+            0.0
+        }
+    }
+}
+
+/// A composed pipeline, ready to run in real time or in virtual time.
+///
+/// The haptic loop is generic over all four parts: static dispatch, no allocation, no lock.
+pub struct Pipeline<I, B, C, D> {
+    haptic: HapticStage<I, D>,
+    contact: ContactStage<B, C>,
+    config: PipelineConfig,
+    live: LiveTelemetry,
+}
+
+impl<I: Integrator, B: CollisionBackend, C: ContactModel, D: Device> Pipeline<I, B, C, D> {
+    /// The haptic stage (tool state, device, statistics).
+    pub fn haptic(&self) -> &HapticStage<I, D> {
+        &self.haptic
+    }
+
+    /// The haptic stage, mutably.
+    pub fn haptic_mut(&mut self) -> &mut HapticStage<I, D> {
+        &mut self.haptic
+    }
+
+    /// The contact stage.
+    pub fn contact(&self) -> &ContactStage<B, C> {
+        &self.contact
+    }
+
+    /// The configuration.
+    pub fn config(&self) -> &PipelineConfig {
+        &self.config
+    }
+
+    /// Live counters, readable while running.
+    pub fn live(&self) -> Snapshot {
+        self.live.snapshot()
+    }
+
+    fn summarize(&self, mode: RunMode, duration_s: Real, c: &ContactStats) -> Summary {
+        let h = &self.haptic.stats;
+        let mut incidents = Vec::new();
+        if let Some(p) = &c.panicked {
+            incidents.push(format!(
+                "contact thread panicked: {p}; contact forces faded out"
+            ));
+        }
+        if c.errors > 0 {
+            incidents.push(format!(
+                "{} contact updates failed (first: {})",
+                c.errors,
+                c.first_error.clone().unwrap_or_default()
+            ));
+        }
+        if h.stale_steps > 0 {
+            incidents.push(format!(
+                "contact model older than {:.0} ms during {} haptic steps: contact forces faded",
+                self.config.safety.contact_timeout_s * 1e3,
+                h.stale_steps
+            ));
+        }
+        if h.divergences > 0 {
+            incidents.push(format!(
+                "tool diverged {} times and was put back at the handle",
+                h.divergences
+            ));
+        }
+        if h.solver_failures > 0 {
+            incidents.push(format!(
+                "{} integration steps failed: zero force sent",
+                h.solver_failures
+            ));
+        }
+        if h.zero_force_steps > h.solver_failures {
+            incidents.push(format!(
+                "{} device readings were NaN or invalid: zero force sent",
+                h.zero_force_steps - h.solver_failures
+            ));
+        }
+        Summary {
+            mode,
+            duration_s,
+            haptic_steps: h.steps,
+            haptic_rate_hz: if duration_s > 0.0 {
+                h.steps as Real / duration_s
+            } else {
+                0.0
+            },
+            step_p50_s: h.step_time.quantile_s(0.5),
+            step_p99_s: h.step_time.quantile_s(0.99),
+            step_p999_s: h.step_time.quantile_s(0.999),
+            step_max_s: h.step_time.max_s(),
+            deadline_misses: self.live.deadline_misses.load(Ordering::Relaxed),
+            contact_updates: c.updates,
+            contact_rate_hz: c.rate_hz(duration_s),
+            contact_latency_p50_s: c.latency.quantile_s(0.5),
+            contact_latency_max_s: c.latency.max_s(),
+            broad_phase_only_queries: c.broad_phase_only,
+            raw_contacts_max: c.raw_max,
+            clusters_max: c.clusters_max,
+            max_penetration_m: c.max_penetration_m,
+            max_coupling_deviation_m: h.max_coupling_deviation_m,
+            max_force_n: h.max_force_n,
+            saturation_events: h.saturation_events,
+            zero_force_steps: h.zero_force_steps,
+            solver_failures: h.solver_failures,
+            contact_errors: c.errors,
+            contact_stale_steps: h.stale_steps,
+            contact_thread_panicked: c.panicked.is_some(),
+            haptic_thread_panic: None,
+            incidents,
+            realtime_scheduling_granted: false,
+            scheduling: String::new(),
+        }
+    }
+}
+
+/// The result of a run from its summary and how the haptic loop ended.
+fn finish(
+    mut summary: Summary,
+    outcome: Result<Option<DeviceFailure>, String>,
+) -> Result<Summary, RuntimeError> {
+    match outcome {
+        Ok(None) => Ok(summary),
+        Ok(Some(f)) => Err(RuntimeError::Device {
+            kind: f.kind,
+            message: f.message,
+            summary: Box::new(summary),
+        }),
+        Err(message) => {
+            summary.incidents.push(format!(
+                "haptic thread panicked: {message}; zero force commanded"
+            ));
+            summary.haptic_thread_panic = Some(message.clone());
+            Err(RuntimeError::HapticPanic {
+                message,
+                summary: Box::new(summary),
+            })
+        }
+    }
+}
