@@ -73,6 +73,7 @@ impl Default for ClusterParams {
 
 /// Bad input to the clustering.
 #[derive(Debug, Clone, Copy, PartialEq, Error)]
+#[non_exhaustive]
 pub enum ClusterError {
     /// `K = 0` was asked for.
     #[error("the number of clusters K must be at least 1")]

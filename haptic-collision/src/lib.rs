@@ -35,20 +35,3 @@ pub use mesh::{
 };
 #[cfg(feature = "parry")]
 pub use parry::{ParryBackend, ParryError, ParryOptions};
-
-/// Checks the public fields of the query parameters again (they can be changed after
-/// `QueryParams::new`); the error is `(what, value, expected)` of the first one out of range,
-/// for each back-end's own `BadParams` variant.
-pub(crate) fn check_query_params(
-    params: &haptic_core::QueryParams,
-) -> Result<(), (&'static str, haptic_core::Real, &'static str)> {
-    params.validate().map_err(|e| match e {
-        haptic_core::CoreError::OutOfRange {
-            what,
-            value,
-            expected,
-        } => (what, value, expected),
-        // `validate` only reports ranges; keep any other core error's message as a range error.
-        _ => ("query parameters", haptic_core::Real::NAN, "valid"),
-    })
-}

@@ -49,25 +49,16 @@ pub enum ParryError {
         /// Which pose.
         what: &'static str,
     },
-    /// Query parameters out of range.
-    #[error("{what} = {value} is out of range: {expected}")]
-    BadParams {
-        /// Which parameter.
-        what: &'static str,
-        /// The value given.
-        value: Real,
-        /// What was expected.
-        expected: &'static str,
-    },
     /// Parry refused to build a mesh.
     #[error("parry could not build a mesh: {0}")]
     Build(String),
     /// Parry does not support this pair of shapes (not expected for two triangle meshes).
     #[error("parry does not support this shape pair")]
     Unsupported,
-    /// A contact could not be formed (non-finite geometry).
+    /// A core check failed: query parameters out of range ([`QueryParams::validate`]), or a
+    /// contact that could not be formed (non-finite geometry).
     #[error(transparent)]
-    Contact(#[from] CoreError),
+    Core(#[from] CoreError),
 }
 
 /// Construction options of [`ParryBackend`].
@@ -225,14 +216,6 @@ impl ParryBackend {
     }
 }
 
-fn check_params(params: &QueryParams) -> Result<(), ParryError> {
-    crate::check_query_params(params).map_err(|(what, value, expected)| ParryError::BadParams {
-        what,
-        value,
-        expected,
-    })
-}
-
 impl CollisionBackend for ParryBackend {
     type Error = ParryError;
 
@@ -253,7 +236,7 @@ impl CollisionBackend for ParryBackend {
         out: &mut ContactSet,
     ) -> Result<QueryStats, ParryError> {
         out.clear();
-        check_params(params)?;
+        params.validate()?;
         if !tool_pose.is_finite() {
             return Err(ParryError::NonFinitePose { what: "tool pose" });
         }
@@ -393,7 +376,7 @@ mod tests {
         neg.delta_m = -1.0;
         assert!(matches!(
             p.query(&Pose::identity(), &neg, &mut out),
-            Err(ParryError::BadParams { .. })
+            Err(ParryError::Core(haptic_core::CoreError::OutOfRange { .. }))
         ));
     }
 

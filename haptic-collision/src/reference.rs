@@ -79,7 +79,7 @@ impl CollisionBackend for ReferenceBackend {
         out: &mut ContactSet,
     ) -> Result<QueryStats, LodError> {
         out.clear();
-        crate::lod::check_params(params)?;
+        params.validate()?;
         if !tool_pose.is_finite() {
             return Err(LodError::NonFinitePose { what: "tool pose" });
         }

@@ -35,23 +35,11 @@ impl QueryParams {
     /// Checks the fields (they are public, so a back-end re-checks what it is given).
     ///
     /// # Errors
-    /// [`CoreError::OutOfRange`] naming `delta_m` (must be positive and finite) or
-    /// `error_threshold` (non-negative and finite).
+    /// [`CoreError::NonFinite`] or [`CoreError::OutOfRange`] naming `query.delta_m` (must be
+    /// positive and finite) or `query.error_threshold` (non-negative and finite).
     pub fn validate(&self) -> Result<(), CoreError> {
-        if !(self.delta_m > 0.0 && self.delta_m.is_finite()) {
-            return Err(CoreError::OutOfRange {
-                what: "delta_m",
-                value: self.delta_m,
-                expected: "positive and finite",
-            });
-        }
-        if !(self.error_threshold >= 0.0 && self.error_threshold.is_finite()) {
-            return Err(CoreError::OutOfRange {
-                what: "error_threshold",
-                value: self.error_threshold,
-                expected: "non-negative and finite",
-            });
-        }
+        crate::check::positive("query.delta_m", self.delta_m)?;
+        crate::check::non_negative("query.error_threshold", self.error_threshold)?;
         Ok(())
     }
 }

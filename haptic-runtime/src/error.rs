@@ -41,9 +41,12 @@ pub enum RuntimeError {
     #[cfg(feature = "scene")]
     #[error(transparent)]
     Scene(#[from] crate::scene::SceneError),
-    /// The initial state could not be set up (a grasp on a NaN pose, say).
-    #[error("set-up failed: {0}")]
-    Setup(String),
+    /// The device's first reading, where the tool is grasped, is not finite.
+    #[error("the first device reading is not finite: the tool cannot be grasped")]
+    NonFiniteFirstReading,
+    /// The tool could not be grasped or coupled (a bad coupling parameter or pose).
+    #[error("the tool could not be grasped: {0}")]
+    Grasp(#[from] haptic_dynamics::DynamicsError),
     /// A thread could not be spawned or joined.
     #[error("thread failure: {0}")]
     Thread(String),

@@ -71,7 +71,7 @@ pub use pipeline::{ContactLatency, Pipeline, PipelineBuilder, PipelineConfig, RE
 #[cfg(feature = "scene")]
 pub use scene::{Scene, SceneError, SceneParts};
 pub use stages::{
-    ContactStage, ContactUpdate, DeviceFailure, HapticStage, SafetyConfig, StepOutcome,
-    ToolMessage, ZeroForceGuard,
+    ContactStage, ContactStageError, ContactUpdate, DeviceFailure, HapticStage, SafetyConfig,
+    StepOutcome, ToolMessage, ZeroForceGuard,
 };
 pub use telemetry::{RunMode, Snapshot, Summary};

@@ -57,24 +57,19 @@ impl ContactUpdate {
 }
 
 /// Why a contact update failed (the update is dropped and counted).
-#[derive(Debug, Clone, PartialEq)]
+#[derive(Debug, thiserror::Error)]
+#[non_exhaustive]
 pub enum ContactStageError {
-    /// The collision back-end returned an error.
-    Collision(String),
+    /// The collision back-end returned an error (its own type, boxed: the stage is generic
+    /// over the back-end).
+    #[error("collision query failed: {0}")]
+    Collision(#[source] Box<dyn std::error::Error + Send + Sync + 'static>),
     /// Clustering failed.
-    Cluster(String),
+    #[error("clustering failed: {0}")]
+    Cluster(#[from] haptic_cluster::ClusterError),
     /// The contact model failed.
-    Model(String),
-}
-
-impl std::fmt::Display for ContactStageError {
-    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        match self {
-            Self::Collision(e) => write!(f, "collision query failed: {e}"),
-            Self::Cluster(e) => write!(f, "clustering failed: {e}"),
-            Self::Model(e) => write!(f, "contact model failed: {e}"),
-        }
-    }
+    #[error("contact model failed: {0}")]
+    Model(#[from] haptic_core::ContactModelError),
 }
 
 /// Steps 1–4 of the contact thread: fetch tool state → collision query → cluster → penalty forces
@@ -138,7 +133,7 @@ impl<B: CollisionBackend, C: ContactModel> ContactStage<B, C> {
         let stats = self
             .backend
             .query(&tool.pose(), &self.params, &mut self.raw)
-            .map_err(|e| ContactStageError::Collision(e.to_string()))?;
+            .map_err(|e| ContactStageError::Collision(Box::new(e)))?;
         self.seq += 1;
         let mut update = ContactUpdate {
             seq: self.seq,
@@ -154,22 +149,18 @@ impl<B: CollisionBackend, C: ContactModel> ContactStage<B, C> {
         update.broad_phase_only = false;
         update.raw_contacts = self.raw.len();
         update.max_penetration_m = self.raw.max_depth_m().unwrap_or(0.0).max(0.0);
-        self.clusterer
-            .cluster(
-                self.raw.as_slice(),
-                self.params.delta_m,
-                &mut self.representatives,
-            )
-            .map_err(|e| ContactStageError::Cluster(e.to_string()))?;
+        self.clusterer.cluster(
+            self.raw.as_slice(),
+            self.params.delta_m,
+            &mut self.representatives,
+        )?;
         update.clusters = self.representatives.len();
-        self.model
-            .linearize(
-                &self.body,
-                tool,
-                self.representatives.as_slice(),
-                &mut update.model,
-            )
-            .map_err(|e| ContactStageError::Model(e.to_string()))?;
+        self.model.linearize(
+            &self.body,
+            tool,
+            self.representatives.as_slice(),
+            &mut update.model,
+        )?;
         Ok(update)
     }
 }

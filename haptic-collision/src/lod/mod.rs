@@ -59,25 +59,16 @@ pub enum LodError {
         /// Which pose.
         what: &'static str,
     },
-    /// Query parameters out of range (they are public fields, so they are checked again).
-    #[error("{what} = {value} is out of range: {expected}")]
-    BadParams {
-        /// Which parameter.
-        what: &'static str,
-        /// The value given.
-        value: Real,
-        /// What was expected.
-        expected: &'static str,
-    },
     /// A mesh has more triangles than the hierarchy's 32-bit indices can address.
     #[error("mesh has {triangles} triangles, more than the hierarchy supports")]
     TooManyTriangles {
         /// Number of triangles.
         triangles: usize,
     },
-    /// A contact could not be formed (non-finite geometry).
+    /// A core check failed: query parameters out of range ([`QueryParams::validate`]), or a
+    /// contact that could not be formed (non-finite geometry).
     #[error(transparent)]
-    Contact(#[from] CoreError),
+    Core(#[from] CoreError),
 }
 
 /// Build figures of one mesh's hierarchy.
@@ -220,15 +211,6 @@ impl LodBackend {
     }
 }
 
-/// Checks the public fields of the query parameters.
-pub(crate) fn check_params(params: &QueryParams) -> Result<(), LodError> {
-    crate::check_query_params(params).map_err(|(what, value, expected)| LodError::BadParams {
-        what,
-        value,
-        expected,
-    })
-}
-
 impl CollisionBackend for LodBackend {
     type Error = LodError;
 
@@ -247,7 +229,7 @@ impl CollisionBackend for LodBackend {
         out: &mut ContactSet,
     ) -> Result<QueryStats, LodError> {
         out.clear();
-        check_params(params)?;
+        params.validate()?;
         if !tool_pose.is_finite() {
             return Err(LodError::NonFinitePose { what: "tool pose" });
         }

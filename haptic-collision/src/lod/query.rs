@@ -51,7 +51,7 @@ impl Frames {
     /// Writes a pair result (obstacle frame) as a world-frame contact.
     ///
     /// # Errors
-    /// [`LodError::Contact`] if the contact is not finite (a degenerate input).
+    /// [`LodError::Core`] if the contact is not finite (a degenerate input).
     #[inline]
     pub fn emit(
         &self,
@@ -302,7 +302,7 @@ pub(crate) struct Scratch {
 /// then the exact distance between the stopped pieces.
 ///
 /// # Errors
-/// [`LodError::Contact`] for a non-finite contact.
+/// [`LodError::Core`] for a non-finite contact.
 pub(crate) fn collide(
     tool: &Hierarchy,
     obs: &Hierarchy,

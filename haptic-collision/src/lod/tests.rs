@@ -350,10 +350,10 @@ fn bad_inputs_give_typed_errors() {
     };
     assert!(matches!(
         lod.query(&Pose::identity(), &bad_delta, &mut out),
-        Err(LodError::BadParams {
-            what: "delta_m",
+        Err(LodError::Core(haptic_core::CoreError::OutOfRange {
+            what: "query.delta_m",
             ..
-        })
+        }))
     ));
     let bad_eps = QueryParams {
         delta_m: 0.001,
@@ -361,10 +361,9 @@ fn bad_inputs_give_typed_errors() {
     };
     assert!(matches!(
         lod.query(&Pose::identity(), &bad_eps, &mut out),
-        Err(LodError::BadParams {
-            what: "error_threshold",
-            ..
-        })
+        Err(LodError::Core(haptic_core::CoreError::NonFinite {
+            what: "query.error_threshold",
+        }))
     ));
 }
 

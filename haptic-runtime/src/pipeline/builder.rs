@@ -113,7 +113,8 @@ impl<I: Integrator, B: CollisionBackend, C: ContactModel, D: Device> PipelineBui
     ///
     /// # Errors
     /// [`RuntimeError::Config`] for a bad configuration, [`RuntimeError::Device`] if the first
-    /// reading fails, [`RuntimeError::Setup`] if the grasp cannot be made.
+    /// reading fails, [`RuntimeError::NonFiniteFirstReading`] or [`RuntimeError::Grasp`] if the grasp cannot be
+    /// made.
     pub fn build(mut self) -> Result<Pipeline<I, B, C, D>, RuntimeError> {
         let Common {
             body,
@@ -128,14 +129,11 @@ impl<I: Integrator, B: CollisionBackend, C: ContactModel, D: Device> PipelineBui
             summary: Box::default(),
         })?;
         if !first.is_finite() {
-            return Err(RuntimeError::Setup(
-                "the first device reading is not finite".into(),
-            ));
+            return Err(RuntimeError::NonFiniteFirstReading);
         }
         let tool = ToolState::at_rest(&tool_pose);
-        let setup = |e: haptic_dynamics::DynamicsError| RuntimeError::Setup(e.to_string());
-        let grasp = Grasp::new(&tool, &first.pose).map_err(setup)?;
-        let coupling = VirtualCoupling::new(coupling, grasp, &first).map_err(setup)?;
+        let grasp = Grasp::new(&tool, &first.pose)?;
+        let coupling = VirtualCoupling::new(coupling, grasp, &first)?;
         let forces = HapticForces {
             coupling,
             contact: haptic_core::LinearizedContact::none(),
