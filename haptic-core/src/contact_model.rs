@@ -305,10 +305,10 @@ pub struct LinearizedContact {
     pub y0: StateVector,
     /// `(F(y₀), T(y₀))`, the sum over the contacts.
     pub wrench0: Wrench,
-    /// The tangents; the first [`LinearizedContact::contacts`] are in use.
+    /// The tangents; the first [`LinearizedContact::contact_count`] are in use.
     pub tangents: [ContactTangent; MAX_REPRESENTATIVES],
     /// Number of contacts (representatives) pushing at `y₀`; 0 means no contact.
-    pub contacts: usize,
+    pub contact_count: usize,
     /// Largest depth among the contacts linearized (m); `-inf` when there is none.
     pub max_depth_m: Real,
     /// Factor on every wrench and Jacobian (1 unless faded, see [`LinearizedContact::scaled`]).
@@ -328,7 +328,7 @@ impl LinearizedContact {
             y0: StateVector::zeros(),
             wrench0: Wrench::zero(),
             tangents: [ContactTangent::none(); MAX_REPRESENTATIVES],
-            contacts: 0,
+            contact_count: 0,
             max_depth_m: Real::NEG_INFINITY,
             scale: 1.0,
         }
@@ -337,13 +337,13 @@ impl LinearizedContact {
     /// Whether there is any contact.
     #[inline]
     pub fn is_empty(&self) -> bool {
-        self.contacts == 0
+        self.contact_count == 0
     }
 
     /// The tangents in use.
     #[inline]
     pub fn tangents(&self) -> &[ContactTangent] {
-        &self.tangents[..self.contacts.min(MAX_REPRESENTATIVES)]
+        &self.tangents[..self.contact_count.min(MAX_REPRESENTATIVES)]
     }
 
     /// Adds a tangent (and its wrench to `wrench0`).
@@ -351,16 +351,16 @@ impl LinearizedContact {
     /// # Errors
     /// [`ContactModelError::TooManyContacts`] when [`MAX_REPRESENTATIVES`] are in use already.
     pub fn push(&mut self, tangent: ContactTangent) -> Result<(), ContactModelError> {
-        if self.contacts >= MAX_REPRESENTATIVES {
+        if self.contact_count >= MAX_REPRESENTATIVES {
             return Err(ContactModelError::TooManyContacts {
-                count: self.contacts + 1,
+                count: self.contact_count + 1,
                 max: MAX_REPRESENTATIVES,
             });
         }
         self.wrench0.force += tangent.wrench0.fixed_rows::<3>(0);
         self.wrench0.torque += tangent.wrench0.fixed_rows::<3>(3);
-        self.tangents[self.contacts] = tangent;
-        self.contacts += 1;
+        self.tangents[self.contact_count] = tangent;
+        self.contact_count += 1;
         Ok(())
     }
 
@@ -388,7 +388,7 @@ impl LinearizedContact {
         mode: LinearizationMode,
         jacobian: Option<&mut WrenchJacobian>,
     ) -> Wrench {
-        if self.contacts == 0 {
+        if self.contact_count == 0 {
             return Wrench::zero();
         }
         match mode {

@@ -32,9 +32,9 @@ pub struct ContactUpdate {
     /// The linearized contact wrench (eq. 42).
     pub model: LinearizedContact,
     /// Raw contacts returned by the collision query.
-    pub raw_contacts: usize,
+    pub raw_contact_count: usize,
     /// Clusters (representatives) the model was built from.
-    pub clusters: usize,
+    pub cluster_count: usize,
     /// Deepest raw penetration (m); 0 when nothing penetrates.
     pub max_penetration_m: Real,
     /// Whether the broad phase found nothing near the tool (no further work was done).
@@ -48,8 +48,8 @@ impl ContactUpdate {
             seq: 0,
             query_time_s: 0.0,
             model: LinearizedContact::none(),
-            raw_contacts: 0,
-            clusters: 0,
+            raw_contact_count: 0,
+            cluster_count: 0,
             max_penetration_m: 0.0,
             broad_phase_only: true,
         }
@@ -147,14 +147,14 @@ impl<B: CollisionBackend, C: ContactModel> ContactStage<B, C> {
             return Ok(update);
         }
         update.broad_phase_only = false;
-        update.raw_contacts = self.raw.len();
+        update.raw_contact_count = self.raw.len();
         update.max_penetration_m = self.raw.max_depth_m().unwrap_or(0.0).max(0.0);
         self.clusterer.cluster(
             self.raw.as_slice(),
             self.params.delta_m,
             &mut self.representatives,
         )?;
-        update.clusters = self.representatives.len();
+        update.cluster_count = self.representatives.len();
         self.model.linearize(
             &self.body,
             tool,

@@ -128,9 +128,9 @@ pub struct LiveTelemetry {
     /// Largest penetration so far (m).
     pub max_penetration_m: AtomicReal,
     /// Raw contacts of the latest update.
-    pub raw_contacts: AtomicU64,
+    pub raw_contact_count: AtomicU64,
     /// Clusters of the latest update.
-    pub clusters: AtomicU64,
+    pub cluster_count: AtomicU64,
     /// Deadline misses so far.
     pub deadline_misses: AtomicU64,
     /// Steps that sent zero force (a NaN reading or state, or a failed solve) so far.
@@ -153,9 +153,9 @@ pub struct Snapshot {
     /// Largest penetration so far (m).
     pub max_penetration_m: Real,
     /// Raw contacts of the latest update.
-    pub raw_contacts: u64,
+    pub raw_contact_count: u64,
     /// Clusters of the latest update.
-    pub clusters: u64,
+    pub cluster_count: u64,
     /// Deadline misses so far.
     pub deadline_misses: u64,
     /// Steps that sent zero force (a NaN reading or state, or a failed solve) so far.
@@ -171,8 +171,8 @@ impl LiveTelemetry {
             time_s: self.time_s.load(),
             max_force_n: self.max_force_n.load(),
             max_penetration_m: self.max_penetration_m.load(),
-            raw_contacts: self.raw_contacts.load(Ordering::Relaxed),
-            clusters: self.clusters.load(Ordering::Relaxed),
+            raw_contact_count: self.raw_contact_count.load(Ordering::Relaxed),
+            cluster_count: self.cluster_count.load(Ordering::Relaxed),
             deadline_misses: self.deadline_misses.load(Ordering::Relaxed),
             zero_force_steps: self.zero_force_steps.load(Ordering::Relaxed),
         }

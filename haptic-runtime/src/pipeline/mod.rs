@@ -45,8 +45,8 @@ impl ContactStats {
         if u.broad_phase_only {
             self.broad_phase_only += 1;
         }
-        self.raw_max = self.raw_max.max(u.raw_contacts as u64);
-        self.clusters_max = self.clusters_max.max(u.clusters as u64);
+        self.raw_max = self.raw_max.max(u.raw_contact_count as u64);
+        self.clusters_max = self.clusters_max.max(u.cluster_count as u64);
         self.max_penetration_m = self.max_penetration_m.max(u.max_penetration_m);
         self.first_update_s.get_or_insert(available_s);
         self.last_update_s = available_s;

@@ -237,10 +237,10 @@ fn contact_thread_loop<B: CollisionBackend, C: ContactModel>(
                 contact_in.write((update, latency));
                 stats.record(&update, latency, now);
                 live.contact_updates.fetch_add(1, Ordering::Relaxed);
-                live.raw_contacts
-                    .store(update.raw_contacts as u64, Ordering::Relaxed);
-                live.clusters
-                    .store(update.clusters as u64, Ordering::Relaxed);
+                live.raw_contact_count
+                    .store(update.raw_contact_count as u64, Ordering::Relaxed);
+                live.cluster_count
+                    .store(update.cluster_count as u64, Ordering::Relaxed);
                 live.max_penetration_m.store(stats.max_penetration_m);
             }
             Ok(Err(e)) => {

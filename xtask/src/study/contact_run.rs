@@ -64,7 +64,7 @@ where
         let tool = h.tool();
         let y = tool.to_vector();
         let contact = h.contact();
-        if contact.raw_contacts > 0 && first_contact_s.is_none() {
+        if contact.raw_contact_count > 0 && first_contact_s.is_none() {
             first_contact_s = Some(t);
         }
         if let Some(bar) = progress {
