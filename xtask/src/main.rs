@@ -12,7 +12,6 @@ mod devices;
 mod plot;
 mod stress;
 mod study;
-mod work_precision;
 
 use std::path::PathBuf;
 
@@ -30,10 +29,10 @@ struct Cli {
 #[derive(clap::Args, Debug, Clone)]
 pub struct OutArgs {
     /// Directory for JSON results and SVG plots.
-    #[arg(long)]
+    #[arg(long, global = true)]
     pub out: Option<PathBuf>,
     /// A shorter run (fewer configurations or samples), for CI and acceptance checks.
-    #[arg(long)]
+    #[arg(long, global = true)]
     pub quick: bool,
 }
 
@@ -58,9 +57,10 @@ enum Command {
         #[command(subcommand)]
         which: study::Study,
     },
-    /// Benchmarks: `bench collision`, or with no sub-command the whole performance report.
+    /// Benchmarks: `bench perf` (the default), `bench collision`, `bench realtime`.
     Bench(bench::BenchArgs),
-    /// Work-precision diagrams of the integrators.
+    /// Same as `study work-precision` (the old name, kept).
+    #[command(hide = true)]
     WorkPrecision(OutArgs),
     /// Randomized long runs that stress numerical stability and the failure paths.
     Stress(stress::StressArgs),
@@ -74,7 +74,7 @@ fn main() -> anyhow::Result<()> {
         Command::Demo(args) => demo::run(&args),
         Command::Study { which } => study::run(which),
         Command::Bench(args) => bench::run(&args),
-        Command::WorkPrecision(args) => work_precision::run(&args),
+        Command::WorkPrecision(args) => study::run(study::Study::WorkPrecision(args)),
         Command::Stress(args) => stress::run(&args),
         Command::Devices => devices::run(),
     }

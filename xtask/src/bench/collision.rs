@@ -61,10 +61,10 @@ struct Scene {
 }
 
 /// Runs the benchmark.
-pub fn run(args: &super::BenchArgs) -> anyhow::Result<()> {
-    let dir = args.out.dir("collision")?;
+pub fn run(args: &super::CollisionArgs, out: &crate::OutArgs) -> anyhow::Result<()> {
+    let dir = out.dir("collision")?;
     let scene = load_scene(args)?;
-    let passes = if args.out.quick { 1 } else { 3 };
+    let passes = if out.quick { 1 } else { 3 };
     println!(
         "collision bench: scene {}, {} + {} triangles, {} poses × {passes}, δ = {} mm",
         scene.name,
@@ -426,7 +426,7 @@ impl WrenchPipeline {
     }
 }
 
-fn load_scene(args: &super::BenchArgs) -> anyhow::Result<Scene> {
+fn load_scene(args: &super::CollisionArgs) -> anyhow::Result<Scene> {
     let meshes = common::meshes_dir();
     match args.scene.as_str() {
         "jaws" => {

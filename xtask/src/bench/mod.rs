@@ -1,34 +1,51 @@
-//! `cargo xtask bench`: the collision benchmark and the performance report.
+//! `cargo xtask bench …`: the performance report (the default), the collision back-ends, and the
+//! real-time demo under load.
 
 mod collision;
 mod perf;
 mod realtime;
 
-/// Arguments of `bench`.
+use crate::OutArgs;
+
+/// Arguments of `bench`: a benchmark (the performance report when none is named) and where to
+/// write.
 #[derive(clap::Args, Debug)]
 pub struct BenchArgs {
-    /// `collision` for the collision benchmark only, `realtime` for the real-time demo under
-    /// load; nothing for the whole report.
-    pub which: Option<String>,
-    /// Scene of the collision benchmark: `jaws`, `spoon-cup`, or `FILE_A,FILE_B`.
+    /// Which benchmark; the performance report when none is named.
+    #[command(subcommand)]
+    pub which: Option<Bench>,
+    /// Output options (also accepted after the benchmark's name).
+    #[command(flatten)]
+    pub out: OutArgs,
+}
+
+/// The benchmarks.
+#[derive(clap::Subcommand, Debug)]
+pub enum Bench {
+    /// The performance report (`perf.json`): haptic step, clustering, collision and build times.
+    Perf,
+    /// Collision back-ends, run time against error (`collision.json`).
+    Collision(CollisionArgs),
+    /// The real-time demo at 1 and 10 kHz, idle and under load (`realtime.json`).
+    Realtime,
+}
+
+/// Arguments of `bench collision`.
+#[derive(clap::Args, Debug, Clone)]
+pub struct CollisionArgs {
+    /// Scene: `jaws`, `spoon-cup`, or `FILE_A,FILE_B` (tool, obstacle).
     #[arg(long, default_value = "jaws")]
     pub scene: String,
     /// Unit scale of meshes given by path (metres per file unit).
     #[arg(long)]
     pub scale: Option<f64>,
-    /// Output options.
-    #[command(flatten)]
-    pub out: crate::OutArgs,
 }
 
 /// Runs a benchmark.
 pub fn run(args: &BenchArgs) -> anyhow::Result<()> {
-    match args.which.as_deref() {
-        Some("collision") => collision::run(args),
-        Some("realtime") => realtime::run(args),
-        None | Some("all") => perf::run(args),
-        Some(other) => {
-            anyhow::bail!("unknown benchmark `{other}`: use `collision`, `realtime` or nothing")
-        }
+    match &args.which {
+        None | Some(Bench::Perf) => perf::run(&args.out),
+        Some(Bench::Collision(c)) => collision::run(c, &args.out),
+        Some(Bench::Realtime) => realtime::run(&args.out),
     }
 }

@@ -34,7 +34,7 @@ use nalgebra::UnitQuaternion;
 use serde_json::{Value, json};
 
 use crate::common;
-use crate::work_precision::{Setup, hand_device, setup};
+use crate::study::work_precision::{Setup, hand_device, setup};
 
 /// Haptic rate, Hz.
 const RATE_HZ: Real = 1000.0;
@@ -156,9 +156,9 @@ fn cpu_model() -> String {
 }
 
 /// Runs the performance report.
-pub fn run(args: &super::BenchArgs) -> anyhow::Result<()> {
-    let quick = args.out.quick;
-    let dir = args.out.dir("bench")?;
+pub fn run(out: &crate::OutArgs) -> anyhow::Result<()> {
+    let quick = out.quick;
+    let dir = out.dir("bench")?;
     let step_samples = if quick { 50_000 } else { 500_000 };
     let cluster_samples = if quick { 5_000 } else { 50_000 };
     let free_samples = if quick { 20_000 } else { 200_000 };

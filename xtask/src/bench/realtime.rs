@@ -93,9 +93,9 @@ fn run_once(
 }
 
 /// Runs the measurement.
-pub fn run(args: &super::BenchArgs) -> anyhow::Result<()> {
-    let dir = args.out.dir("bench")?;
-    let seconds = if args.out.quick { 3.0 } else { 10.0 };
+pub fn run(out: &crate::OutArgs) -> anyhow::Result<()> {
+    let dir = out.dir("bench")?;
+    let seconds = if out.quick { 3.0 } else { 10.0 };
     let cores = std::thread::available_parallelism().map_or(2, usize::from);
     let scene_path = repo_root().join("xtask/scenes/spoon-cup.toml");
     let scene = Scene::load(&scene_path)?;

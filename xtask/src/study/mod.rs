@@ -5,6 +5,7 @@ mod cup;
 pub(crate) mod free_space;
 mod jaws;
 mod report;
+pub(crate) mod work_precision;
 
 use crate::OutArgs;
 
@@ -17,6 +18,8 @@ pub enum Study {
     Cup(OutArgs),
     /// Fig. 6: the jaws.
     Jaws(OutArgs),
+    /// Integrators' error against run time (work-precision diagrams).
+    WorkPrecision(OutArgs),
     /// Every study, and a report.
     All(OutArgs),
 }
@@ -27,6 +30,7 @@ pub fn run(which: Study) -> anyhow::Result<()> {
         Study::FreeSpace(a) => free_space::run(&a),
         Study::Cup(a) => cup::run(&a),
         Study::Jaws(a) => jaws::run(&a),
+        Study::WorkPrecision(a) => work_precision::run(&a),
         Study::All(a) => {
             free_space::run(&a)?;
             cup::run(&a)?;
