@@ -30,3 +30,10 @@ pub fn write_json(path: &Path, value: &serde_json::Value) -> anyhow::Result<()> 
     println!("wrote {}", path.display());
     Ok(())
 }
+
+/// Writes any serializable report as pretty JSON, and says so.
+pub fn write_serialized(path: &Path, value: &impl serde::Serialize) -> anyhow::Result<()> {
+    std::fs::write(path, serde_json::to_string_pretty(value)?)?;
+    println!("wrote {}", path.display());
+    Ok(())
+}

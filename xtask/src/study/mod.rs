@@ -12,8 +12,9 @@ use crate::OutArgs;
 /// Which study.
 #[derive(clap::Subcommand, Debug)]
 pub enum Study {
-    /// Fig. 3: integrators against tool mass in free space.
-    FreeSpace(OutArgs),
+    /// Fig. 3: integrators against tool mass in free space, on the built-in hand motion or a
+    /// recorded one (`--trajectory FILE`).
+    FreeSpace(free_space::FreeSpaceArgs),
     /// Fig. 4: the spoon in the cup.
     Cup(OutArgs),
     /// Fig. 6: the jaws.
@@ -32,7 +33,11 @@ pub fn run(which: Study) -> anyhow::Result<()> {
         Study::Jaws(a) => jaws::run(&a),
         Study::WorkPrecision(a) => work_precision::run(&a),
         Study::All(a) => {
-            free_space::run(&a)?;
+            free_space::run(&free_space::FreeSpaceArgs {
+                out: a.clone(),
+                trajectory: None,
+                write_trajectory: None,
+            })?;
             cup::run(&a)?;
             jaws::run(&a)?;
             report::write(&a)

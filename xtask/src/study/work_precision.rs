@@ -148,15 +148,11 @@ pub(crate) fn setup() -> anyhow::Result<Setup> {
     });
     let coupling = VirtualCoupling::grasping(CouplingParams::default(), &start, &d0)?;
     // Five representatives: the lowest vertex in each fifth of the spoon's length (body frame).
-    let tris = free_space::read_stl(&mesh)?;
-    let (lo_y, hi_y) = tris
-        .iter()
-        .flatten()
-        .fold((Real::INFINITY, Real::NEG_INFINITY), |(lo, hi), p| {
-            (lo.min(p.y), hi.max(p.y))
-        });
+    let vertices = shape.mesh.vertices();
+    let (lo, hi) = shape.mesh.bounding_box();
+    let (lo_y, hi_y) = (lo.y, hi.y);
     let mut lowest: [Option<Vec3>; 5] = [None; 5];
-    for p in tris.iter().flatten() {
+    for p in vertices {
         let bin = (((p.y - lo_y) / (hi_y - lo_y) * 5.0) as usize).min(4);
         if lowest[bin].is_none_or(|q| p.z < q.z) {
             lowest[bin] = Some(*p);
