@@ -24,15 +24,8 @@ pub fn meshes_dir() -> PathBuf {
     repo_root().join("assets").join("meshes")
 }
 
-/// Writes `value` as pretty JSON to `path`, and says where.
-pub fn write_json(path: &Path, value: &serde_json::Value) -> anyhow::Result<()> {
-    std::fs::write(path, serde_json::to_string_pretty(value)?)?;
-    println!("wrote {}", path.display());
-    Ok(())
-}
-
 /// Writes any serializable report as pretty JSON, and says so.
-pub fn write_serialized(path: &Path, value: &impl serde::Serialize) -> anyhow::Result<()> {
+pub fn write_json(path: &Path, value: &impl serde::Serialize) -> anyhow::Result<()> {
     std::fs::write(path, serde_json::to_string_pretty(value)?)?;
     println!("wrote {}", path.display());
     Ok(())

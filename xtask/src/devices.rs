@@ -6,7 +6,7 @@ use haptic_core::{Device, DeviceLimits, Pose, Vec3};
 use haptic_device::{
     HandDevice, HandParams, SIMULATED_DEVICES, ScriptedDevice, SpaceMouseConfig, Waypoint,
 };
-use serde_json::json;
+use serde::Serialize;
 
 use crate::common;
 
@@ -81,15 +81,13 @@ pub fn run() -> anyhow::Result<()> {
             }
             let list = mice
                 .iter()
-                .map(|d| {
-                    json!({
-                        "model": d.model,
-                        "vendor_id": d.vendor_id,
-                        "product_id": d.product_id,
-                        "product": d.product,
-                        "manufacturer": d.manufacturer,
-                        "path": d.path,
-                    })
+                .map(|d| HidEntry {
+                    model: d.model,
+                    vendor_id: d.vendor_id,
+                    product_id: d.product_id,
+                    product: d.product.clone(),
+                    manufacturer: d.manufacturer.clone(),
+                    path: d.path.clone(),
                 })
                 .collect();
             (format!("{} found", mice.len()), list)
@@ -101,18 +99,55 @@ pub fn run() -> anyhow::Result<()> {
         .join("xtask")
         .join("devices");
     std::fs::create_dir_all(&dir)?;
-    let simulated: Vec<_> = SIMULATED_DEVICES
+    let simulated = SIMULATED_DEVICES
         .iter()
-        .map(|(name, what)| json!({ "name": name, "description": what }))
+        .map(|&(name, description)| Simulated { name, description })
         .collect();
     common::write_json(
         &dir.join("devices.json"),
-        &json!({
-            "simulated": simulated,
-            "hand_self_check": { "max_tracking_error_m": err_m, "final_x_m": x_m },
-            "hid_status": hid_status,
-            "hid": hid_list,
-        }),
+        &DevicesReport {
+            simulated,
+            hand_self_check: HandCheck {
+                max_tracking_error_m: err_m,
+                final_x_m: x_m,
+            },
+            hid_status,
+            hid: hid_list,
+        },
     )?;
     Ok(())
+}
+
+/// A simulated device of `devices.json`.
+#[derive(Serialize)]
+struct Simulated {
+    name: &'static str,
+    description: &'static str,
+}
+
+/// A HID device found.
+#[derive(Serialize)]
+struct HidEntry {
+    model: Option<&'static str>,
+    vendor_id: u16,
+    product_id: u16,
+    product: String,
+    manufacturer: String,
+    path: String,
+}
+
+/// The simulated hand's self-check.
+#[derive(Serialize)]
+struct HandCheck {
+    max_tracking_error_m: f64,
+    final_x_m: f64,
+}
+
+/// `devices.json`.
+#[derive(Serialize)]
+struct DevicesReport {
+    simulated: Vec<Simulated>,
+    hand_self_check: HandCheck,
+    hid_status: String,
+    hid: Vec<HidEntry>,
 }

@@ -22,7 +22,6 @@ use nalgebra::UnitQuaternion;
 use rand::{Rng, SeedableRng};
 use rayon::prelude::*;
 use serde::Serialize;
-use serde_json::json;
 
 use crate::common::{repo_root, write_json};
 
@@ -369,20 +368,23 @@ pub fn run(args: &StressArgs) -> anyhow::Result<()> {
         .map(|o| o.max_quat_norm_error)
         .fold(0.0, Real::max);
     let divergent = outcomes.iter().filter(|o| o.divergent).count();
-    let mut per_integrator = serde_json::Map::new();
+    let mut per_integrator = std::collections::BTreeMap::new();
     for name in INTEGRATORS {
         let mine: Vec<&Outcome> = outcomes
             .iter()
             .filter(|o| o.config.integrator == name)
             .collect();
         per_integrator.insert(
-            name.to_owned(),
-            json!({
-                "runs": mine.len(),
-                "divergent_runs": mine.iter().filter(|o| o.divergent).count(),
-                "stable_runs": mine.iter().filter(|o| o.stable).count(),
-                "passivity_min_energy_j": mine.iter().map(|o| o.passivity_min_energy_j).fold(0.0, Real::min),
-            }),
+            name,
+            IntegratorTotals {
+                runs: mine.len(),
+                divergent_runs: mine.iter().filter(|o| o.divergent).count(),
+                stable_runs: mine.iter().filter(|o| o.stable).count(),
+                passivity_min_energy_j: mine
+                    .iter()
+                    .map(|o| o.passivity_min_energy_j)
+                    .fold(0.0, Real::min),
+            },
         );
     }
     // The passivity controller, measured on the smooth-motion runs that are unstable without it.
@@ -408,41 +410,41 @@ pub fn run(args: &StressArgs) -> anyhow::Result<()> {
         unstable.len()
     );
     let map = stability_map(&outcomes);
-    write_json(
-        &dir.join("stress.json"),
-        &json!({
-            "steps_total": steps_total,
-            "configurations": outcomes.len(),
-            "nan_forces_sent": nan_sent,
-            "over_limit_forces_sent": over_sent,
-            "max_quat_norm_error": quat,
-            "divergent_runs": divergent,
-            "integrators": per_integrator,
-            "stability_map": map.1,
-            "passivity_controller": {
-                "rerun_unstable_smooth_runs": unstable.len(),
-                "stable_with_controller": pc_stable,
-                "min_port_energy_without_j": before_min_energy,
-                "min_port_energy_with_j": pc_min_energy,
-                "nan_forces_sent": with_pc.iter().map(|o| o.nan_forces_sent).sum::<u64>(),
-                "over_limit_forces_sent": with_pc.iter().map(|o| o.over_limit_forces_sent).sum::<u64>(),
-            },
-            "runs": outcomes,
-        }),
-    )?;
+    let report = StressReport {
+        steps_total,
+        configurations: outcomes.len(),
+        nan_forces_sent: nan_sent,
+        over_limit_forces_sent: over_sent,
+        max_quat_norm_error: quat,
+        divergent_runs: divergent,
+        integrators: per_integrator,
+        stability_map: &map.1,
+        passivity_controller: PassivityReport {
+            rerun_unstable_smooth_runs: unstable.len(),
+            stable_with_controller: pc_stable,
+            min_port_energy_without_j: before_min_energy,
+            min_port_energy_with_j: pc_min_energy,
+            nan_forces_sent: with_pc.iter().map(|o| o.nan_forces_sent).sum::<u64>(),
+            over_limit_forces_sent: with_pc
+                .iter()
+                .map(|o| o.over_limit_forces_sent)
+                .sum::<u64>(),
+        },
+        runs: &outcomes,
+    };
+    write_json(&dir.join("stress.json"), &report)?;
     std::fs::write(dir.join("stability.md"), &map.0)?;
     println!(
         "{steps_total} steps, {} configurations: {nan_sent} NaN forces sent, {over_sent} over-limit forces sent, max |q| error {quat:.1e}, {divergent} divergent runs",
         outcomes.len()
     );
     println!("{}", map.0);
-    println!("wrote {}", dir.join("stress.json").display());
     Ok(())
 }
 
 /// The stability map: for each integrator, the fraction of smooth-motion runs that are stable,
 /// by decade of mass and by the coupling-stiffness-to-mass ratio. Returns Markdown and JSON.
-fn stability_map(outcomes: &[Outcome]) -> (String, serde_json::Value) {
+fn stability_map(outcomes: &[Outcome]) -> (String, Vec<MapCell>) {
     let mass_bins: [(Real, Real); 4] = [(5e-4, 5e-3), (5e-3, 5e-2), (5e-2, 0.5), (0.5, 1.0 + 1e-9)];
     let rate_bins: [(Real, Real); 2] = [(10.0, 100.0), (100.0, 1000.0 + 1e-9)];
     let mut md = String::from(
@@ -470,17 +472,62 @@ fn stability_map(outcomes: &[Outcome]) -> (String, serde_json::Value) {
                 } else {
                     row.push_str(&format!(" {stable}/{} |", runs.len()));
                 }
-                cells.push(json!({
-                    "integrator": name,
-                    "contact_rate_hz": [rlo, rhi],
-                    "mass_kg": [mlo, mhi],
-                    "runs": runs.len(),
-                    "stable": stable,
-                }));
+                cells.push(MapCell {
+                    integrator: name,
+                    contact_rate_hz: [rlo, rhi],
+                    mass_kg: [mlo, mhi],
+                    runs: runs.len(),
+                    stable,
+                });
             }
             md.push_str(&row);
             md.push('\n');
         }
     }
-    (md, serde_json::Value::Array(cells))
+    (md, cells)
+}
+
+/// Per-integrator totals of `stress.json`.
+#[derive(Serialize)]
+struct IntegratorTotals {
+    runs: usize,
+    divergent_runs: usize,
+    stable_runs: usize,
+    passivity_min_energy_j: Real,
+}
+
+/// One cell of the stability map.
+#[derive(Serialize)]
+struct MapCell {
+    integrator: &'static str,
+    contact_rate_hz: [Real; 2],
+    mass_kg: [Real; 2],
+    runs: usize,
+    stable: usize,
+}
+
+/// The passivity controller's reruns.
+#[derive(Serialize)]
+struct PassivityReport {
+    rerun_unstable_smooth_runs: usize,
+    stable_with_controller: usize,
+    min_port_energy_without_j: Real,
+    min_port_energy_with_j: Real,
+    nan_forces_sent: u64,
+    over_limit_forces_sent: u64,
+}
+
+/// `stress.json`.
+#[derive(Serialize)]
+struct StressReport<'a> {
+    steps_total: u64,
+    configurations: usize,
+    nan_forces_sent: u64,
+    over_limit_forces_sent: u64,
+    max_quat_norm_error: Real,
+    divergent_runs: usize,
+    integrators: std::collections::BTreeMap<&'static str, IntegratorTotals>,
+    stability_map: &'a [MapCell],
+    passivity_controller: PassivityReport,
+    runs: &'a [Outcome],
 }

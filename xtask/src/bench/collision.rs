@@ -39,7 +39,7 @@ use haptic_core::{
 };
 use haptic_dynamics::penalty::{PenaltyModel, PenaltyParams};
 use nalgebra::UnitQuaternion;
-use serde_json::json;
+use serde::Serialize;
 
 use crate::common;
 use crate::plot::{self, Chart, Scale, Series};
@@ -107,24 +107,22 @@ pub fn run(args: &super::CollisionArgs, out: &crate::OutArgs) -> anyhow::Result<
     for r in &rows {
         println!(
             "{:>6} {:>6.1} %: median {:>9.1} µs, p99 {:>9.1} µs, contacts {:>8.1}, node pairs {:>9.0}, wrench error median {:.3} (p90 {:.3}; own chain {:.3}), |F|/|F0| {:.3}",
-            r["backend"].as_str().unwrap_or(""),
-            r["threshold"].as_f64().unwrap_or(0.0) * 100.0,
-            r["median_s"].as_f64().unwrap_or(0.0) * 1e6,
-            r["p99_s"].as_f64().unwrap_or(0.0) * 1e6,
-            r["contacts_mean"].as_f64().unwrap_or(0.0),
-            r["node_pairs_mean"].as_f64().unwrap_or(0.0),
-            r["wrench_error_rel_median"].as_f64().unwrap_or(0.0),
-            r["wrench_error_rel_p90"].as_f64().unwrap_or(0.0),
-            r["wrench_error_rel_median_chained"].as_f64().unwrap_or(0.0),
-            r["force_ratio_median"].as_f64().unwrap_or(0.0),
+            r.backend,
+            r.threshold * 100.0,
+            r.median_s * 1e6,
+            r.p99_s * 1e6,
+            r.contacts_mean,
+            r.node_pairs_mean,
+            r.wrench_error_rel_median,
+            r.wrench_error_rel_p90,
+            r.wrench_error_rel_median_chained,
+            r.force_ratio_median,
         );
     }
     let median_of = |b: &str, th: Real| {
         rows.iter()
-            .find(|r| {
-                r["backend"] == b && (r["threshold"].as_f64().unwrap_or(-1.0) - th).abs() < 1e-12
-            })
-            .and_then(|r| r["median_s"].as_f64())
+            .find(|r| r.backend == b && (r.threshold - th).abs() < 1e-12)
+            .map(|r| r.median_s)
     };
     let speedup = match (median_of("parry", 0.0), median_of("lod", 0.025)) {
         (Some(p), Some(l)) if l > 0.0 => p / l,
@@ -147,51 +145,69 @@ pub fn run(args: &super::CollisionArgs, out: &crate::OutArgs) -> anyhow::Result<
     }
     let far_s = t.elapsed().as_secs_f64() / 10_000.0;
 
-    let value = json!({
-        "scene": scene.name,
-        "description": scene.description,
-        "delta_m": scene.delta_m,
-        "k_c_n_per_m": scene.k_c,
-        "poses": scene.poses.len(),
-        "passes": passes,
-        "tool_bounding_radius_m": radius,
-        "wrench": "contacts -> haptic_cluster::Clusterer (K = 5, w = d + delta) -> haptic_dynamics::penalty::PenaltyModel (k_c, b_c = 0, tool at rest), torque about the tool origin; error |W - W0| / |W0| with W = (F, T / r), W0 = LOD at threshold 0. The reference warm-starts from its previous pose; the other runs cluster each pose from the reference's representatives of that pose (wrench_error_rel_*), and along their own chain of warm starts (wrench_error_rel_*_chained)",
-        "builds": [
-            {"backend": "lod", "mesh": "tool", "triangles": bs.tool.triangles, "nodes": bs.tool.nodes, "build_s": bs.tool.build_s},
-            {"backend": "lod", "mesh": "obstacle", "triangles": bs.obstacles[0].triangles, "nodes": bs.obstacles[0].nodes, "build_s": bs.obstacles[0].build_s},
-            {"backend": "lod", "mesh": "both", "build_s": lod_build_s, "memory_bytes": lod.memory_bytes()},
-            {"backend": "parry", "mesh": "both", "build_s": parry_build_s},
+    let report = CollisionReport {
+        scene: scene.name.clone(),
+        description: scene.description.clone(),
+        delta_m: scene.delta_m,
+        k_c_n_per_m: scene.k_c,
+        poses: scene.poses.len(),
+        passes,
+        tool_bounding_radius_m: radius,
+        wrench: "contacts -> haptic_cluster::Clusterer (K = 5, w = d + delta) -> haptic_dynamics::penalty::PenaltyModel (k_c, b_c = 0, tool at rest), torque about the tool origin; error |W - W0| / |W0| with W = (F, T / r), W0 = LOD at threshold 0. The reference warm-starts from its previous pose; the other runs cluster each pose from the reference's representatives of that pose (wrench_error_rel_*), and along their own chain of warm starts (wrench_error_rel_*_chained)",
+        builds: vec![
+            Build {
+                backend: "lod",
+                mesh: "tool",
+                triangles: Some(bs.tool.triangles),
+                nodes: Some(bs.tool.nodes),
+                build_s: bs.tool.build_s,
+                memory_bytes: None,
+            },
+            Build {
+                backend: "lod",
+                mesh: "obstacle",
+                triangles: Some(bs.obstacles[0].triangles),
+                nodes: Some(bs.obstacles[0].nodes),
+                build_s: bs.obstacles[0].build_s,
+                memory_bytes: None,
+            },
+            Build {
+                backend: "lod",
+                mesh: "both",
+                triangles: None,
+                nodes: None,
+                build_s: lod_build_s,
+                memory_bytes: Some(lod.memory_bytes()),
+            },
+            Build {
+                backend: "parry",
+                mesh: "both",
+                triangles: None,
+                nodes: None,
+                build_s: parry_build_s,
+                memory_bytes: None,
+            },
         ],
-        "lod_build_s": lod_build_s,
-        "parry_build_s": parry_build_s,
-        "far_tool_query_s": far_s,
-        "speedup_lod_2_5_percent_vs_parry": speedup,
-        "clustering_variability_rel_median": quantile(&reference.cold_errors, 0.5),
-        "clustering_variability_rel_p90": quantile(&reference.cold_errors, 0.9),
-        "rows": rows,
-    });
-    common::write_json(&dir.join("collision.json"), &value)?;
+        lod_build_s,
+        parry_build_s,
+        far_tool_query_s: far_s,
+        speedup_lod_2_5_percent_vs_parry: speedup,
+        clustering_variability_rel_median: quantile(&reference.cold_errors, 0.5),
+        clustering_variability_rel_p90: quantile(&reference.cold_errors, 0.9),
+        rows: &rows,
+    };
+    common::write_json(&dir.join("collision.json"), &report)?;
 
     let lod_points: Vec<(f64, f64)> = rows
         .iter()
-        .filter(|r| r["backend"] == "lod")
-        .filter_map(|r| {
-            Some((
-                r["wrench_error_rel_median"].as_f64()?,
-                r["median_s"].as_f64()? * 1e3,
-            ))
-        })
+        .filter(|r| r.backend == "lod")
+        .map(|r| (r.wrench_error_rel_median, r.median_s * 1e3))
         .collect();
     // Parry has one point: drawn as a horizontal line at its median time across the LOD range
     // (a single point would not show in a line chart); its own error is in the legend.
-    let parry = rows.iter().find(|r| r["backend"] == "parry");
-    let parry_ms = parry
-        .and_then(|r| r["median_s"].as_f64())
-        .unwrap_or(Real::NAN)
-        * 1e3;
-    let parry_err = parry
-        .and_then(|r| r["wrench_error_rel_median"].as_f64())
-        .unwrap_or(Real::NAN);
+    let parry = rows.iter().find(|r| r.backend == "parry");
+    let parry_ms = parry.map_or(Real::NAN, |r| r.median_s) * 1e3;
+    let parry_err = parry.map_or(Real::NAN, |r| r.wrench_error_rel_median);
     let xs = lod_points.iter().map(|p| p.0).filter(|x| *x > 0.0);
     let (x0, x1) = xs.fold((Real::INFINITY, 0.0 as Real), |(lo, hi), x| {
         (lo.min(x), hi.max(x))
@@ -254,24 +270,77 @@ fn quantile(v: &[Real], f: Real) -> Real {
     }
 }
 
-fn row(backend: &str, threshold: Real, r: &RunResult, build_s: Real) -> serde_json::Value {
+fn row(backend: &'static str, threshold: Real, r: &RunResult, build_s: Real) -> Row {
     let (t, e, ec, fr) = (&r.times_s, &r.errors, &r.errors_chained, &r.force_ratios);
     let q = quantile;
-    json!({
-        "backend": backend,
-        "threshold": threshold,
-        "median_s": q(t, 0.5),
-        "p99_s": q(t, 0.99),
-        "contacts_mean": r.contacts_mean,
-        "node_pairs_mean": r.node_pairs_mean,
-        "wrench_error_rel_median": q(e, 0.5),
-        "wrench_error_rel_p90": q(e, 0.9),
-        "wrench_error_rel_max": q(e, 1.0),
-        "wrench_error_rel_median_chained": q(ec, 0.5),
-        "wrench_error_rel_p90_chained": q(ec, 0.9),
-        "force_ratio_median": q(fr, 0.5),
-        "build_s": build_s,
-    })
+    Row {
+        backend,
+        threshold,
+        median_s: q(t, 0.5),
+        p99_s: q(t, 0.99),
+        contacts_mean: r.contacts_mean,
+        node_pairs_mean: r.node_pairs_mean,
+        wrench_error_rel_median: q(e, 0.5),
+        wrench_error_rel_p90: q(e, 0.9),
+        wrench_error_rel_max: q(e, 1.0),
+        wrench_error_rel_median_chained: q(ec, 0.5),
+        wrench_error_rel_p90_chained: q(ec, 0.9),
+        force_ratio_median: q(fr, 0.5),
+        build_s,
+    }
+}
+
+/// One back-end at one threshold, in `collision.json`.
+#[derive(Serialize)]
+struct Row {
+    backend: &'static str,
+    threshold: Real,
+    median_s: Real,
+    p99_s: Real,
+    contacts_mean: Real,
+    node_pairs_mean: Real,
+    wrench_error_rel_median: Real,
+    wrench_error_rel_p90: Real,
+    wrench_error_rel_max: Real,
+    wrench_error_rel_median_chained: Real,
+    wrench_error_rel_p90_chained: Real,
+    force_ratio_median: Real,
+    build_s: Real,
+}
+
+/// One hierarchy (or back-end) build.
+#[derive(Serialize)]
+struct Build {
+    backend: &'static str,
+    mesh: &'static str,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    triangles: Option<usize>,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    nodes: Option<usize>,
+    build_s: Real,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    memory_bytes: Option<usize>,
+}
+
+/// `collision.json`.
+#[derive(Serialize)]
+struct CollisionReport<'a> {
+    scene: String,
+    description: String,
+    delta_m: Real,
+    k_c_n_per_m: Real,
+    poses: usize,
+    passes: usize,
+    tool_bounding_radius_m: Real,
+    wrench: &'static str,
+    builds: Vec<Build>,
+    lod_build_s: Real,
+    parry_build_s: Real,
+    far_tool_query_s: Real,
+    speedup_lod_2_5_percent_vs_parry: Real,
+    clustering_variability_rel_median: Real,
+    clustering_variability_rel_p90: Real,
+    rows: &'a [Row],
 }
 
 /// Replays the sequence `passes` times; the wrench of each pose comes from the first pass.

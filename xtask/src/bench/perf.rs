@@ -20,6 +20,7 @@
 //!   with the upper jaw 1 m above the lower one (the broad phase rejects it), then the empty-set
 //!   handling of `haptic_runtime`'s contact stage (clear the representatives, no model).
 
+use std::collections::BTreeMap;
 use std::hint::black_box;
 use std::time::Instant;
 
@@ -31,7 +32,7 @@ use haptic_core::{
 };
 use haptic_dynamics::{HapticForces, IntegratorKind};
 use nalgebra::UnitQuaternion;
-use serde_json::{Value, json};
+use serde::Serialize;
 
 use crate::common;
 use crate::study::work_precision::{Setup, hand_device, setup};
@@ -167,13 +168,13 @@ pub fn run(out: &crate::OutArgs) -> anyhow::Result<()> {
     // Haptic step.
     let s = setup()?;
     let trajectory_steps = (2.5 * RATE_HZ) as usize;
-    let mut haptic = serde_json::Map::new();
+    let mut haptic = BTreeMap::new();
     let mut states = Vec::new();
     for contact in [false, true] {
         states.push(reference_states(&s, contact, trajectory_steps)?);
     }
     for kind in IntegratorKind::ALL {
-        let mut entry = serde_json::Map::new();
+        let mut entry = BTreeMap::new();
         for (contact, st) in [false, true].into_iter().zip(&states) {
             let (med, p99, p999) = time_haptic_step(kind, &s, contact, st, step_samples)?;
             let key = if contact { "contacts5" } else { "free" };
@@ -186,11 +187,15 @@ pub fn run(out: &crate::OutArgs) -> anyhow::Result<()> {
                 p999 * 1e6
             );
             entry.insert(
-                key.to_owned(),
-                json!({ "median_s": med, "p99_s": p99, "p999_s": p999 }),
+                key,
+                StepTimes {
+                    median_s: med,
+                    p99_s: p99,
+                    p999_s: p999,
+                },
             );
         }
-        haptic.insert(kind.name().to_owned(), Value::Object(entry));
+        haptic.insert(kind.name(), entry);
     }
 
     // Clustering 50 → 5, warm.
@@ -299,38 +304,103 @@ pub fn run(out: &crate::OutArgs) -> anyhow::Result<()> {
     let free_med = median(&mut free_times);
     println!("free-space contact step: median {:.1} ns", free_med * 1e9);
 
-    let value = json!({
-        "haptic_step": haptic,
-        "cluster_50_to_5_median_s": cluster_median,
-        "collision_jaws": {
-            "parry_median_s": parry_med,
-            "lod_exact_median_s": exact_med,
-            "lod_2_5_median_s": lod25_med,
-            "speedup_lod_2_5_vs_parry": speedup,
-            "parry_p99_s": parry_p99,
-            "lod_exact_p99_s": exact_p99,
-            "lod_2_5_p99_s": lod25_p99,
-            "speedup_lod_exact_vs_parry": parry_med / exact_med,
-            "contacts_mean": { "parry": n_parry as Real / np, "lod_exact": n_exact as Real / np, "lod_2_5": n_25 as Real / np },
-            "poses": poses.len(),
-            "passes": passes,
-            "delta_m": DELTA_M,
+    let report = PerfReport {
+        haptic_step: haptic,
+        cluster_50_to_5_median_s: cluster_median,
+        collision_jaws: CollisionJaws {
+            parry_median_s: parry_med,
+            lod_exact_median_s: exact_med,
+            lod_2_5_median_s: lod25_med,
+            speedup_lod_2_5_vs_parry: speedup,
+            parry_p99_s: parry_p99,
+            lod_exact_p99_s: exact_p99,
+            lod_2_5_p99_s: lod25_p99,
+            speedup_lod_exact_vs_parry: parry_med / exact_med,
+            contacts_mean: ContactsMean {
+                parry: n_parry as Real / np,
+                lod_exact: n_exact as Real / np,
+                lod_2_5: n_25 as Real / np,
+            },
+            poses: poses.len(),
+            passes,
+            delta_m: DELTA_M,
         },
-        "build_jaws_s": build_s,
-        "build_jaws_bytes": build_bytes,
-        "build_jaws_parry_s": parry_build_s,
-        "free_space_contact_step_median_s": free_med,
-        "setup": {
-            "cpu": cpu_model(),
-            "cpus": std::thread::available_parallelism().map(|n| n.get()).unwrap_or(1),
-            "quick": quick,
-            "haptic_step_samples": step_samples,
-            "haptic_step": "set_device + integrator step (HapticForces) + device_reaction, 1 kHz, 100 g spoon, default coupling; states from a backward-Euler run along the free-space hand motion; contacts5: linearized penalty wrench of 5 representatives",
-            "cluster_samples": cluster_samples,
-            "free_space_samples": free_samples,
-            "timer": "std::time::Instant around each call (its overhead included)",
+        build_jaws_s: build_s,
+        build_jaws_bytes: build_bytes,
+        build_jaws_parry_s: parry_build_s,
+        free_space_contact_step_median_s: free_med,
+        setup: PerfSetup {
+            cpu: cpu_model(),
+            cpus: std::thread::available_parallelism()
+                .map(|n| n.get())
+                .unwrap_or(1),
+            quick,
+            haptic_step_samples: step_samples,
+            haptic_step: "set_device + integrator step (HapticForces) + device_reaction, 1 kHz, 100 g spoon, default coupling; states from a backward-Euler run along the free-space hand motion; contacts5: linearized penalty wrench of 5 representatives",
+            cluster_samples,
+            free_space_samples: free_samples,
+            timer: "std::time::Instant around each call (its overhead included)",
         },
-    });
-    common::write_json(&dir.join("perf.json"), &value)?;
+    };
+    common::write_json(&dir.join("perf.json"), &report)?;
     Ok(())
+}
+
+/// Step-time quantiles (s).
+#[derive(Serialize)]
+struct StepTimes {
+    median_s: Real,
+    p99_s: Real,
+    p999_s: Real,
+}
+
+/// Mean contacts per query.
+#[derive(Serialize)]
+struct ContactsMean {
+    parry: Real,
+    lod_exact: Real,
+    lod_2_5: Real,
+}
+
+/// The jaws' collision figures.
+#[derive(Serialize)]
+struct CollisionJaws {
+    parry_median_s: Real,
+    lod_exact_median_s: Real,
+    lod_2_5_median_s: Real,
+    speedup_lod_2_5_vs_parry: Real,
+    parry_p99_s: Real,
+    lod_exact_p99_s: Real,
+    lod_2_5_p99_s: Real,
+    speedup_lod_exact_vs_parry: Real,
+    contacts_mean: ContactsMean,
+    poses: usize,
+    passes: usize,
+    delta_m: Real,
+}
+
+/// How the figures were taken.
+#[derive(Serialize)]
+struct PerfSetup {
+    cpu: String,
+    cpus: usize,
+    quick: bool,
+    haptic_step_samples: usize,
+    haptic_step: &'static str,
+    cluster_samples: usize,
+    free_space_samples: usize,
+    timer: &'static str,
+}
+
+/// `perf.json` (its fields are the contract of `../shared/acceptance/09-work-precision`).
+#[derive(Serialize)]
+struct PerfReport {
+    haptic_step: BTreeMap<&'static str, BTreeMap<&'static str, StepTimes>>,
+    cluster_50_to_5_median_s: Real,
+    collision_jaws: CollisionJaws,
+    build_jaws_s: Real,
+    build_jaws_bytes: usize,
+    build_jaws_parry_s: Real,
+    free_space_contact_step_median_s: Real,
+    setup: PerfSetup,
 }

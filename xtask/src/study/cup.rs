@@ -7,7 +7,7 @@ use haptic_device::{ScriptedDevice, Waypoint};
 use haptic_dynamics::{LinearizedBackwardEuler, PenaltyParams, Rk4};
 use haptic_runtime::{ContactLatency, Scene, SceneParts};
 use nalgebra::UnitQuaternion;
-use serde_json::json;
+use serde::Serialize;
 
 use super::contact_run::{self, RunResult, points, rms_between};
 use crate::common::{repo_root, write_json};
@@ -138,30 +138,35 @@ pub fn run(args: &crate::OutArgs) -> anyhow::Result<()> {
         let r = r?;
         let s = &r.series;
         let contact_at = r.first_contact_s.unwrap_or(DURATION_S);
-        let row = json!({
-            "name": c.name,
-            "integrator": c.integrator,
-            "mass_kg": c.mass_kg,
-            "contact_stiffness_n_per_m": c.contact_stiffness_n_per_m,
-            "coupling_stiffness_n_per_m": base.coupling.stiffness_n_per_m,
-            "stable": r.stable,
-            "max_penetration_m": r.summary.max_penetration_m,
-            "first_contact_s": r.first_contact_s,
-            "rms_coupling_force_free_n": rms_between(&s.t_s, &s.coupling_force_n, 0.0, contact_at),
-            "rms_coupling_force_contact_n": rms_between(&s.t_s, &s.coupling_force_n, contact_at, DURATION_S + 1.0),
-            "max_coupling_force_n": r.summary.max_force_n,
-            "max_coupling_deviation_m": r.summary.max_coupling_deviation_m,
-            "raw_contacts_max": r.summary.raw_contacts_max,
-            "clusters_max": r.summary.clusters_max,
-            "zero_force_steps": r.summary.zero_force_steps,
-        });
+        let row = CupRow {
+            name: c.name,
+            integrator: c.integrator,
+            mass_kg: c.mass_kg,
+            contact_stiffness_n_per_m: c.contact_stiffness_n_per_m,
+            coupling_stiffness_n_per_m: base.coupling.stiffness_n_per_m,
+            stable: r.stable,
+            max_penetration_m: r.summary.max_penetration_m,
+            first_contact_s: r.first_contact_s,
+            rms_coupling_force_free_n: rms_between(&s.t_s, &s.coupling_force_n, 0.0, contact_at),
+            rms_coupling_force_contact_n: rms_between(
+                &s.t_s,
+                &s.coupling_force_n,
+                contact_at,
+                DURATION_S + 1.0,
+            ),
+            max_coupling_force_n: r.summary.max_force_n,
+            max_coupling_deviation_m: r.summary.max_coupling_deviation_m,
+            raw_contacts_max: r.summary.raw_contacts_max,
+            clusters_max: r.summary.clusters_max,
+            zero_force_steps: r.summary.zero_force_steps,
+        };
         println!(
             "{:<26} stable {:<5} max penetration {:.3} mm, RMS coupling force free {:.3} N / contact {:.3} N",
             c.name,
             r.stable,
             r.summary.max_penetration_m * 1e3,
-            row["rms_coupling_force_free_n"].as_f64().unwrap_or(0.0),
-            row["rms_coupling_force_contact_n"].as_f64().unwrap_or(0.0),
+            row.rms_coupling_force_free_n,
+            row.rms_coupling_force_contact_n,
         );
         rows.push(row);
         pen.push(Series::new(
@@ -185,14 +190,14 @@ pub fn run(args: &crate::OutArgs) -> anyhow::Result<()> {
     }
     write_json(
         &dir.join("cup.json"),
-        &json!({
-            "study": "cup (Fig. 4)",
-            "duration_s": DURATION_S,
-            "contact_rate_hz": CONTACT_HZ,
-            "haptic_rate_hz": base.config.haptic_rate_hz,
-            "delta_m": base.penalty.delta_m,
-            "configurations": rows,
-        }),
+        &CupReport {
+            study: "cup (Fig. 4)",
+            duration_s: DURATION_S,
+            contact_rate_hz: CONTACT_HZ,
+            haptic_rate_hz: base.config.haptic_rate_hz,
+            delta_m: base.penalty.delta_m,
+            configurations: rows,
+        },
     )?;
     for (file, title, y, series) in [
         (
@@ -232,6 +237,36 @@ pub fn run(args: &crate::OutArgs) -> anyhow::Result<()> {
             series,
         )?;
     }
-    println!("wrote {}", dir.join("cup.json").display());
     Ok(())
+}
+
+/// One configuration of `cup.json`.
+#[derive(Serialize)]
+struct CupRow {
+    name: &'static str,
+    integrator: &'static str,
+    mass_kg: Real,
+    contact_stiffness_n_per_m: Real,
+    coupling_stiffness_n_per_m: Real,
+    stable: bool,
+    max_penetration_m: Real,
+    first_contact_s: Option<Real>,
+    rms_coupling_force_free_n: Real,
+    rms_coupling_force_contact_n: Real,
+    max_coupling_force_n: Real,
+    max_coupling_deviation_m: Real,
+    raw_contacts_max: u64,
+    clusters_max: u64,
+    zero_force_steps: u64,
+}
+
+/// `cup.json`.
+#[derive(Serialize)]
+struct CupReport {
+    study: &'static str,
+    duration_s: Real,
+    contact_rate_hz: Real,
+    haptic_rate_hz: Real,
+    delta_m: Real,
+    configurations: Vec<CupRow>,
 }

@@ -9,7 +9,7 @@ use haptic_core::{DeviceLimits, Pose, QueryParams, Real, RigidBody, Vec3};
 use haptic_device::{ScaledDevice, ScriptedDevice, Waypoint};
 use haptic_dynamics::{CouplingParams, LinearizedBackwardEuler, PenaltyParams};
 use haptic_runtime::{ContactLatency, PipelineConfig, SceneParts};
-use serde_json::json;
+use serde::Serialize;
 
 use super::contact_run::{self, points};
 use crate::common::{meshes_dir, write_json};
@@ -105,7 +105,7 @@ fn run_one(
     linearized: bool,
     latency_scale: Real,
     bar: &indicatif::ProgressBar,
-) -> anyhow::Result<(serde_json::Value, contact_run::Series, bool)> {
+) -> anyhow::Result<(JawsRow, contact_run::Series, bool)> {
     let mut parts = base.clone();
     parts.config.query = QueryParams::new(parts.penalty.delta_m, threshold)?;
     parts.config.linearization = if linearized {
@@ -134,21 +134,21 @@ fn run_one(
             0.0
         }
     };
-    let row = json!({
-        "threshold": threshold,
-        "linearized": linearized,
-        "stable": r.stable,
-        "max_penetration_m": s.max_penetration_m,
-        "contact_rate_hz_min": rate(s.contact_latency_max_s),
-        "contact_rate_hz_median": rate(s.contact_latency_p50_s),
-        "raw_contacts_max": s.raw_contacts_max,
-        "clusters_max": s.clusters_max,
-        "max_coupling_force_n": s.max_force_n,
-        "max_coupling_deviation_m": s.max_coupling_deviation_m,
-        "contact_updates": s.contact_updates,
-        "zero_force_steps": s.zero_force_steps,
-        "first_contact_s": r.first_contact_s,
-    });
+    let row = JawsRow {
+        threshold,
+        linearized,
+        stable: r.stable,
+        max_penetration_m: s.max_penetration_m,
+        contact_rate_hz_min: rate(s.contact_latency_max_s),
+        contact_rate_hz_median: rate(s.contact_latency_p50_s),
+        raw_contacts_max: s.raw_contacts_max,
+        clusters_max: s.clusters_max,
+        max_coupling_force_n: s.max_force_n,
+        max_coupling_deviation_m: s.max_coupling_deviation_m,
+        contact_updates: s.contact_updates,
+        zero_force_steps: s.zero_force_steps,
+        first_contact_s: r.first_contact_s,
+    };
     println!(
         "threshold {:>5.1} %, {:<13} stable {:<5} max penetration {:.3} mm, contact rate median {:.0} Hz (min {:.0}), {} raw contacts, {} clusters, max force {:.2} N",
         threshold * 100.0,
@@ -193,11 +193,7 @@ pub fn run(args: &crate::OutArgs) -> anyhow::Result<()> {
         1.0,
         &contact_run::bar(&multi, "calibration, 0.4 %", DURATION_S),
     )?;
-    let median_cost_s = 1.0
-        / calib["contact_rate_hz_median"]
-            .as_f64()
-            .unwrap_or(1e3)
-            .max(1e-9);
+    let median_cost_s = 1.0 / calib.contact_rate_hz_median.max(1e-9);
     let latency_scale = (1.0 / TARGET_RATE_AT_0_4_HZ) / median_cost_s;
     println!(
         "median 0.4 % contact update {:.3} ms here; latency scale {:.1} (0.4 % runs at about {} Hz)",
@@ -239,20 +235,20 @@ pub fn run(args: &crate::OutArgs) -> anyhow::Result<()> {
     }
     write_json(
         &dir.join("jaws.json"),
-        &json!({
-            "study": "jaws (Fig. 6)",
-            "duration_s": DURATION_S,
-            "workspace_scale": WORKSPACE_SCALE,
-            "force_scale": FORCE_SCALE,
-            "mass_kg": base.body.mass_kg(),
-            "coupling_stiffness_n_per_m": base.coupling.stiffness_n_per_m,
-            "contact_stiffness_n_per_m": base.penalty.stiffness_n_per_m,
-            "clusters": base.config.cluster.max_clusters,
-            "latency": "measured cost of each query times latency_scale, at least 1 ms",
-            "latency_scale": latency_scale,
-            "median_query_cost_0_4_s": median_cost_s,
-            "runs": rows,
-        }),
+        &JawsReport {
+            study: "jaws (Fig. 6)",
+            duration_s: DURATION_S,
+            workspace_scale: WORKSPACE_SCALE,
+            force_scale: FORCE_SCALE,
+            mass_kg: base.body.mass_kg(),
+            coupling_stiffness_n_per_m: base.coupling.stiffness_n_per_m,
+            contact_stiffness_n_per_m: base.penalty.stiffness_n_per_m,
+            clusters: base.config.cluster.max_clusters,
+            latency: "measured cost of each query times latency_scale, at least 1 ms",
+            latency_scale,
+            median_query_cost_0_4_s: median_cost_s,
+            runs: rows,
+        },
     )?;
     for (file, title, y, series) in [
         (
@@ -280,6 +276,40 @@ pub fn run(args: &crate::OutArgs) -> anyhow::Result<()> {
             series,
         )?;
     }
-    println!("wrote {}", dir.join("jaws.json").display());
     Ok(())
+}
+
+/// One run of `jaws.json`.
+#[derive(Serialize)]
+pub(crate) struct JawsRow {
+    threshold: Real,
+    linearized: bool,
+    stable: bool,
+    max_penetration_m: Real,
+    contact_rate_hz_min: Real,
+    contact_rate_hz_median: Real,
+    raw_contacts_max: u64,
+    clusters_max: u64,
+    max_coupling_force_n: Real,
+    max_coupling_deviation_m: Real,
+    contact_updates: u64,
+    zero_force_steps: u64,
+    first_contact_s: Option<Real>,
+}
+
+/// `jaws.json`.
+#[derive(Serialize)]
+struct JawsReport {
+    study: &'static str,
+    duration_s: Real,
+    workspace_scale: Real,
+    force_scale: Real,
+    mass_kg: Real,
+    coupling_stiffness_n_per_m: Real,
+    contact_stiffness_n_per_m: Real,
+    clusters: usize,
+    latency: &'static str,
+    latency_scale: Real,
+    median_query_cost_0_4_s: Real,
+    runs: Vec<JawsRow>,
 }

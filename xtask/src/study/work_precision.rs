@@ -45,7 +45,8 @@ use haptic_dynamics::{
     VirtualCoupling,
 };
 use nalgebra::UnitQuaternion;
-use serde_json::{Value, json};
+use serde::Serialize;
+use serde_json::Value;
 
 use crate::common;
 use crate::plot::{Chart, Scale, Series, line_chart};
@@ -284,10 +285,10 @@ pub fn run(args: &crate::OutArgs) -> anyhow::Result<()> {
         );
         references.push(r);
     }
-    let mut integrators = serde_json::Map::new();
+    let mut integrators = std::collections::BTreeMap::new();
     let mut series = Vec::new();
     for kind in IntegratorKind::ALL {
-        let mut entry = serde_json::Map::new();
+        let mut entry = WpIntegrator::default();
         let mut fit = Vec::new();
         for (contact, reference) in [false, true].into_iter().zip(&references) {
             let mut rows = Vec::new();
@@ -311,12 +312,12 @@ pub fn run(args: &crate::OutArgs) -> anyhow::Result<()> {
                         fit.push((dt, e));
                     }
                 }
-                rows.push(json!({
-                    "dt_s": dt,
-                    "error": error.filter(|e| e.is_finite()),
-                    "seconds_per_simulated_second": cost,
-                    "stable": stable,
-                }));
+                rows.push(WpRow {
+                    dt_s: dt,
+                    error: error.filter(|e| e.is_finite()),
+                    seconds_per_simulated_second: cost,
+                    stable,
+                });
             }
             let label = if contact {
                 format!("{} (contact)", kind.name())
@@ -324,63 +325,73 @@ pub fn run(args: &crate::OutArgs) -> anyhow::Result<()> {
                 kind.name().to_owned()
             };
             series.push(Series::new(label, curve));
-            entry.insert(
-                if contact { "contact_rows" } else { "rows" }.to_owned(),
-                Value::Array(rows),
-            );
+            if contact {
+                entry.contact_rows = rows;
+            } else {
+                entry.rows = rows;
+            }
         }
         let order = log_slope(&fit);
-        entry.insert("order_observed".to_owned(), json!(order));
+        entry.order_observed = order;
         println!(
             "{:<22} observed order {}",
             kind.name(),
             order.map_or("n/a".to_owned(), |p| format!("{p:.2}"))
         );
-        for key in ["rows", "contact_rows"] {
-            for r in entry[key].as_array().into_iter().flatten() {
+        for (key, rows) in [("rows", &entry.rows), ("contact_rows", &entry.contact_rows)] {
+            for r in rows {
                 println!(
                     "  {:<12} dt {:6.3} ms  error {:>10}  {:8.4} s/s{}",
                     key,
-                    r["dt_s"].as_f64().unwrap_or(0.0) * 1e3,
-                    r["error"]
-                        .as_f64()
-                        .map_or("-".to_owned(), |e| format!("{e:.3e}")),
-                    r["seconds_per_simulated_second"].as_f64().unwrap_or(0.0),
-                    if r["stable"] == true {
-                        ""
-                    } else {
-                        "  unstable"
-                    }
+                    r.dt_s * 1e3,
+                    r.error.map_or("-".to_owned(), |e| format!("{e:.3e}")),
+                    r.seconds_per_simulated_second,
+                    if r.stable { "" } else { "  unstable" }
                 );
             }
         }
-        integrators.insert(kind.name().to_owned(), Value::Object(entry));
+        integrators.insert(kind.name(), entry);
     }
     let collision = collision_json(&dir);
-    let mut report = json!({
-        "integrators": integrators,
-        "setup": {
-            "mesh": "newell_teaspoon.stl",
-            "mass_kg": MASS_KG,
-            "duration_s": DURATION_S,
-            "hand": "analytic hand motion of the free-space study (xtask/src/study/free_space.rs, hand_at), evaluated at the integrators' stage times",
-            "coupling": "CouplingParams::default()",
-            "reference": format!("rk4 at dt = {REFERENCE_DT_S} s"),
-            "error": format!("max over samples every {SAMPLE_S} s of |x - x_ref| + {LEVER_M} m * angle(q, q_ref), in m"),
-            "stable": format!("every step succeeds with a finite state and error < {UNSTABLE_ERROR_M} m"),
-            "cost": format!("wall time of the run per simulated second, best of {repeats}"),
-            "order_observed": format!("least-squares slope of log error against log dt over the stable free-space rows with error > {ROUNDOFF_M} m"),
-            "contact": format!(
-                "linearized penalty wrench (PenaltyParams::default, eq. 42) of {} fixed representatives on the spoon's underside, each {} m deep in a table with normal +z, linearized once at the start state and held for the run",
-                s.table_points_body_m.len(), TABLE_DEPTH_M
+    let mut report = WpReport {
+        integrators,
+        setup: WpSetup {
+            mesh: "newell_teaspoon.stl",
+            mass_kg: MASS_KG,
+            duration_s: DURATION_S,
+            hand: "analytic hand motion of the free-space study (xtask/src/study/free_space/motion.rs, hand_at), evaluated at the integrators' stage times",
+            coupling: "CouplingParams::default()",
+            reference: format!("rk4 at dt = {REFERENCE_DT_S} s"),
+            error: format!(
+                "max over samples every {SAMPLE_S} s of |x - x_ref| + {LEVER_M} m * angle(q, q_ref), in m"
             ),
-            "contact_points_body_m": s.table_points_body_m.iter().map(|p| [p.x, p.y, p.z]).collect::<Vec<_>>(),
-            "steps_ms": steps_ms,
-            "quick": args.quick,
+            stable: format!(
+                "every step succeeds with a finite state and error < {UNSTABLE_ERROR_M} m"
+            ),
+            cost: format!("wall time of the run per simulated second, best of {repeats}"),
+            order_observed: format!(
+                "least-squares slope of log error against log dt over the stable free-space rows with error > {ROUNDOFF_M} m"
+            ),
+            contact: format!(
+                "linearized penalty wrench (PenaltyParams::default, eq. 42) of {} fixed representatives on the spoon's underside, each {} m deep in a table with normal +z, linearized once at the start state and held for the run",
+                s.table_points_body_m.len(),
+                TABLE_DEPTH_M
+            ),
+            contact_points_body_m: s
+                .table_points_body_m
+                .iter()
+                .map(|p| [p.x, p.y, p.z])
+                .collect(),
+            steps_ms: steps_ms.to_vec(),
+            quick: args.quick,
         },
-    });
+        collision: None,
+    };
     if let Some((path, value)) = &collision {
-        report["collision"] = json!({ "source": path.display().to_string(), "results": value });
+        report.collision = Some(CollisionCurves {
+            source: path.display().to_string(),
+            results: value.clone(),
+        });
         let rows = value["rows"].as_array().cloned().unwrap_or_default();
         let mut curves = Vec::new();
         for backend in ["lod", "parry"] {
@@ -427,4 +438,55 @@ pub fn run(args: &crate::OutArgs) -> anyhow::Result<()> {
         &series,
     )?;
     Ok(())
+}
+
+/// One step size of one integrator.
+#[derive(Serialize)]
+struct WpRow {
+    dt_s: Real,
+    error: Option<Real>,
+    seconds_per_simulated_second: Real,
+    stable: bool,
+}
+
+/// One integrator: free space (`rows`) and on the table (`contact_rows`).
+#[derive(Serialize, Default)]
+struct WpIntegrator {
+    rows: Vec<WpRow>,
+    contact_rows: Vec<WpRow>,
+    order_observed: Option<Real>,
+}
+
+/// The set-up, for the record.
+#[derive(Serialize)]
+struct WpSetup {
+    mesh: &'static str,
+    mass_kg: Real,
+    duration_s: Real,
+    hand: &'static str,
+    coupling: &'static str,
+    reference: String,
+    error: String,
+    stable: String,
+    cost: String,
+    order_observed: String,
+    contact: String,
+    contact_points_body_m: Vec<[Real; 3]>,
+    steps_ms: Vec<Real>,
+    quick: bool,
+}
+
+/// The collision back-ends' curves, passed through from `collision.json` (its own schema).
+#[derive(Serialize)]
+struct CollisionCurves {
+    source: String,
+    results: serde_json::Value,
+}
+
+/// `work-precision.json`.
+#[derive(Serialize)]
+struct WpReport {
+    integrators: std::collections::BTreeMap<&'static str, WpIntegrator>,
+    setup: WpSetup,
+    collision: Option<CollisionCurves>,
 }

@@ -361,7 +361,7 @@ pub fn run(args: &FreeSpaceArgs) -> anyhow::Result<()> {
         },
         figure_runs,
     };
-    common::write_serialized(&dir.join("free-space.json"), &report)?;
+    common::write_json(&dir.join("free-space.json"), &report)?;
     line_chart(
         &dir.join("free-space-sweep.svg"),
         &Chart {
