@@ -4,24 +4,8 @@ use std::hint::black_box;
 
 use criterion::{Criterion, criterion_group, criterion_main};
 use haptic_cluster::{ClusterParams, Clusterer};
-use haptic_core::{Contact, ContactSet, Real, Vec3};
-
-/// A contact patch like a spoon on a cup wall: points on a 2 cm × 1 cm curved strip, drifting by
-/// 10 µm per frame, depths varying smoothly.
-fn frame(t: usize, n: usize) -> Vec<Contact> {
-    (0..n)
-        .map(|i| {
-            let u = (i as Real * 0.618_034).fract();
-            let v = (i as Real * 0.414_214).fract();
-            let x = 0.02 * u + 1e-5 * t as Real;
-            let y = 0.01 * v;
-            let p = Vec3::new(x, y, 0.002 * (30.0 * x).sin());
-            let n = Vec3::new(-0.06 * (30.0 * x).cos(), 0.0, 1.0).normalize();
-            let d = 3e-4 * (1.0 + (200.0 * x + 100.0 * y).sin());
-            Contact::new(p, p, p - d * n, n, d).unwrap()
-        })
-        .collect()
-}
+use haptic_core::{Contact, ContactSet};
+use haptic_test_support::contacts::drifting_patch as frame;
 
 fn bench(c: &mut Criterion) {
     let mut group = c.benchmark_group("cluster");

@@ -1,13 +1,7 @@
 //! The haptic loop allocates nothing: its step is counted with a global allocator, in contact
 //! (linearized model in use) and for each integrator.
 
-// A counting global allocator needs `unsafe impl GlobalAlloc`; it only forwards to `System`.
-#![allow(unsafe_code)]
-
 mod common;
-
-use std::alloc::{GlobalAlloc, Layout, System};
-use std::sync::atomic::{AtomicUsize, Ordering};
 
 use common::BoxOnFloor;
 use haptic_core::{DeviceLimits, Integrator, Pose, RigidBody, Vec3};
@@ -16,26 +10,10 @@ use haptic_dynamics::{
     ForwardEuler, LinearizedBackwardEuler, NewtonBackwardEuler, PenaltyModel, PenaltyParams, Rk4,
 };
 use haptic_runtime::{PipelineBuilder, PipelineConfig};
-
-struct Counting;
-static ALLOCATIONS: AtomicUsize = AtomicUsize::new(0);
-
-unsafe impl GlobalAlloc for Counting {
-    unsafe fn alloc(&self, layout: Layout) -> *mut u8 {
-        ALLOCATIONS.fetch_add(1, Ordering::Relaxed);
-        unsafe { System.alloc(layout) }
-    }
-    unsafe fn dealloc(&self, ptr: *mut u8, layout: Layout) {
-        unsafe { System.dealloc(ptr, layout) }
-    }
-    unsafe fn realloc(&self, ptr: *mut u8, layout: Layout, new_size: usize) -> *mut u8 {
-        ALLOCATIONS.fetch_add(1, Ordering::Relaxed);
-        unsafe { System.realloc(ptr, layout, new_size) }
-    }
-}
+use haptic_test_support::alloc::{CountingAllocator, allocations};
 
 #[global_allocator]
-static GLOBAL: Counting = Counting;
+static GLOBAL: CountingAllocator = CountingAllocator;
 
 const HALF_M: f64 = 0.025;
 
@@ -68,7 +46,7 @@ fn steps_allocate<I: Integrator>(integrator: I) -> usize {
     .unwrap();
     assert!(!p.haptic().contact().model.is_empty(), "not in contact");
     let update = *p.haptic().contact();
-    let before = ALLOCATIONS.load(Ordering::Relaxed);
+    let before = allocations();
     for k in 0..2000 {
         let t = 0.3 + k as f64 * 1e-3;
         if k % 4 == 0 {
@@ -78,7 +56,7 @@ fn steps_allocate<I: Integrator>(integrator: I) -> usize {
         }
         p.haptic_mut().step(t, 1e-3).unwrap();
     }
-    ALLOCATIONS.load(Ordering::Relaxed) - before
+    allocations() - before
 }
 
 #[test]

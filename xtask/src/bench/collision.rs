@@ -592,28 +592,9 @@ pub(super) fn load_tool(path: &Path, scale: Real) -> anyhow::Result<(TriMesh, Ve
     Ok((mesh.translated(&-origin)?, origin))
 }
 
-/// The jaws: the upper jaw at its stored place in occlusion (body origin at `com`), moved along a
-/// closed path by up to 0.5 mm sideways, from 0.1 mm down to 0.5 mm up, and tilted by up to 0.3°.
+/// The jaws' pose path (the shared fixture).
 pub(super) fn jaws_poses(com: &Vec3) -> Vec<Pose> {
-    (0..POSES)
-        .map(|i| {
-            let s = i as Real / POSES as Real * std::f64::consts::TAU;
-            let dp = Vec3::new(
-                0.5e-3 * s.sin(),
-                0.5e-3 * (2.0 * s).cos(),
-                0.3e-3 * (3.0 * s).sin() + 0.2e-3,
-            );
-            let rot = UnitQuaternion::from_scaled_axis(Vec3::new(
-                0.005 * s.cos(),
-                0.005 * s.sin(),
-                0.003 * (2.0 * s).sin(),
-            ));
-            Pose {
-                position: com + dp,
-                orientation: rot,
-            }
-        })
-        .collect()
+    haptic_test_support::poses::jaws_poses(com, POSES)
 }
 
 /// A tool approaching an obstacle along `−up` with a fixed orientation: the first offset with a

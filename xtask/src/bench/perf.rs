@@ -112,22 +112,6 @@ fn time_haptic_step(
     Ok(quantiles(&mut times))
 }
 
-/// 50 contacts of a 2 cm × 1 cm curved patch drifting by 10 µm per frame (the cluster bench's).
-fn cluster_frame(t: usize, n: usize) -> anyhow::Result<Vec<Contact>> {
-    (0..n)
-        .map(|i| {
-            let u = (i as Real * 0.618_034).fract();
-            let v = (i as Real * 0.414_214).fract();
-            let x = 0.02 * u + 1e-5 * t as Real;
-            let y = 0.01 * v;
-            let p = Vec3::new(x, y, 0.002 * (30.0 * x).sin());
-            let n = Vec3::new(-0.06 * (30.0 * x).cos(), 0.0, 1.0).normalize();
-            let d = 3e-4 * (1.0 + (200.0 * x + 100.0 * y).sin());
-            Ok(Contact::new(p, p, p - d * n, n, d)?)
-        })
-        .collect()
-}
-
 /// Times one query.
 fn time_query<B: CollisionBackend>(
     backend: &mut B,
@@ -200,8 +184,8 @@ pub fn run(out: &crate::OutArgs) -> anyhow::Result<()> {
 
     // Clustering 50 → 5, warm.
     let frames: Vec<Vec<Contact>> = (0..64)
-        .map(|t| cluster_frame(t, 50))
-        .collect::<anyhow::Result<_>>()?;
+        .map(|t| haptic_test_support::contacts::drifting_patch(t, 50))
+        .collect();
     let mut clusterer = Clusterer::new(ClusterParams::default())?;
     let mut reps = ContactSet::with_capacity(8);
     for f in &frames {
