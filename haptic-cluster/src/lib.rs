@@ -189,7 +189,7 @@ pub struct Clusterer {
     weights: Vec<Real>,
     /// Cluster index of each contact.
     assign: Vec<u32>,
-    /// Squared distances of the seeding, cluster-major: `dist[k * n + i] = |p_i − c_k|²` (m²).
+    /// Scratch row of the seeding: squared distances from one point to every contact (m²).
     dist: Vec<Real>,
     /// Per contact: squared distance to the closest centroid so far (m²) and its index.
     best: Vec<Real>,
@@ -347,7 +347,7 @@ impl Clusterer {
         }
         self.assign.resize(n, 0);
         let k_max = self.params.max_clusters.min(n);
-        self.dist.resize(k_max * n, 0.0);
+        self.dist.resize(n, 0.0);
 
         let warm = self.params.warm_start && !self.previous.is_empty();
         self.seed(contacts, k_max, warm);
@@ -431,7 +431,7 @@ impl Clusterer {
                 for j in 0..m {
                     if !self.taken_old[j] && self.best_of_old[j].1 == i {
                         // Rare (two old clusters nearest the same contact): look again.
-                        let row = &mut self.dist[..n];
+                        let row = &mut self.dist[..];
                         self.points.distances_squared(&self.previous[j].0, row);
                         self.best_of_old[j] = closest_free(row, &self.taken_new);
                     }
@@ -463,7 +463,7 @@ impl Clusterer {
         // Furthest-point seeds for the rest.
         self.min_d2.clear();
         self.min_d2.resize(n, Real::INFINITY);
-        let row = &mut self.dist[..n];
+        let row = &mut self.dist[..];
         for c in &self.centroids {
             self.points.distances_squared(c, row);
             for (m, d) in self.min_d2.iter_mut().zip(row.iter()) {
