@@ -8,6 +8,14 @@ mod bench;
 mod common;
 mod demo;
 mod devices;
+/// The drifting contact patch xtask's benches share with the crates' tests and benches, compiled
+/// from its one source in `haptic-test-support` (a path module rather than a dependency, so that
+/// xtask stays packageable while the support crate is not published).
+#[path = "../../haptic-test-support/src/contacts.rs"]
+mod fixture_contacts;
+/// The jaws' pose path, likewise.
+#[path = "../../haptic-test-support/src/poses.rs"]
+mod fixture_poses;
 #[allow(dead_code)]
 mod plot;
 mod stress;

@@ -594,7 +594,7 @@ pub(super) fn load_tool(path: &Path, scale: Real) -> anyhow::Result<(TriMesh, Ve
 
 /// The jaws' pose path (the shared fixture).
 pub(super) fn jaws_poses(com: &Vec3) -> Vec<Pose> {
-    haptic_test_support::poses::jaws_poses(com, POSES)
+    crate::fixture_poses::jaws_poses(com, POSES)
 }
 
 /// A tool approaching an obstacle along `−up` with a fixed orientation: the first offset with a

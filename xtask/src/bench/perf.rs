@@ -184,7 +184,7 @@ pub fn run(out: &crate::OutArgs) -> anyhow::Result<()> {
 
     // Clustering 50 → 5, warm.
     let frames: Vec<Vec<Contact>> = (0..64)
-        .map(|t| haptic_test_support::contacts::drifting_patch(t, 50))
+        .map(|t| crate::fixture_contacts::drifting_patch(t, 50))
         .collect();
     let mut clusterer = Clusterer::new(ClusterParams::default())?;
     let mut reps = ContactSet::with_capacity(8);

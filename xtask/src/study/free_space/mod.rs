@@ -5,7 +5,7 @@
 //! (`k = 200 N/m`, `k_θ = 0.6 N m/rad`, damping from [`CouplingParams::default`]) and follows a
 //! hand motion without touching anything. For each integrator the tool mass is swept
 //! (log-spaced, 0.5 g to 500 g, inertia scaled with the mass); each run is judged stable or not,
-//! and tracking or lagging, by the rules of [`run`]. Reported per integrator: the smallest mass
+//! and tracking or lagging, by the rules of [`mod@run`]. Reported per integrator: the smallest mass
 //! above which every run is stable, the ranges of stable masses, and for each run the rule that
 //! failed.
 //!
@@ -48,7 +48,8 @@ pub struct FreeSpaceArgs {
     #[command(flatten)]
     pub out: crate::OutArgs,
     /// A hand motion to follow instead of the built-in one: a recording in the replay format
-    /// (`haptic_device::record`, as `cargo xtask demo --record` writes), at least 0.5 s long.
+    /// (`haptic_device::record`: what a `haptic_device::Recorder` around any device writes), at
+    /// least 0.5 s long.
     #[arg(long)]
     pub trajectory: Option<PathBuf>,
     /// Write the built-in hand motion to this file (in the replay format) and stop.
