@@ -199,7 +199,7 @@ where
         let s = pipeline.run_realtime(args.seconds, |snap| {
             bar.set_position((snap.time_s * 1000.0) as u64);
             bar.set_message(format!(
-                "{} contacts, {} cluster_count, {:.2} N",
+                "{} contacts, {} clusters, {:.2} N",
                 snap.raw_contact_count, snap.cluster_count, snap.max_force_n
             ));
         })?;
@@ -229,7 +229,7 @@ fn print_summary(s: &Summary) {
         s.broad_phase_only_queries
     );
     println!(
-        "contacts      {} raw at most, {} cluster_count at most; max penetration {:.3} mm",
+        "contacts      {} raw at most, {} clusters at most; max penetration {:.3} mm",
         s.raw_contacts_max,
         s.clusters_max,
         s.max_penetration_m * 1e3
