@@ -346,6 +346,16 @@ impl LinearizedContact {
         &self.tangents[..self.contact_count.min(MAX_REPRESENTATIVES)]
     }
 
+    /// Whether, at `y`, some contact is pressed deeper than its tangent's reach
+    /// (`λ > λ_max`): the tool has moved into the surface farther than the query at `y₀` could
+    /// see, as happens when it travels more than `δ` between two queries.
+    pub fn beyond_reach(&self, y: &StateVector) -> bool {
+        let dy = y - self.y0;
+        self.tangents()
+            .iter()
+            .any(|t| t.lambda0_n + (t.dlambda_dy * dy)[0] > t.lambda_max_n)
+    }
+
     /// Adds a tangent (and its wrench to `wrench0`).
     ///
     /// # Errors
@@ -367,7 +377,7 @@ impl LinearizedContact {
     /// The wrench at `y` (constant time).
     #[inline]
     pub fn wrench_at(&self, y: &StateVector, mode: LinearizationMode) -> Wrench {
-        self.evaluate(y, mode, None)
+        self.evaluate(y, mode, 1.0, None)
     }
 
     /// The wrench at `y` and, in [`LinearizationMode::Linearized`], its Jacobian added into
@@ -379,23 +389,38 @@ impl LinearizedContact {
         mode: LinearizationMode,
         jacobian: &mut WrenchJacobian,
     ) -> Wrench {
-        self.evaluate(y, mode, Some(jacobian))
+        self.evaluate(y, mode, 1.0, Some(jacobian))
+    }
+
+    /// The wrench at `y` times `factor` and, when `jacobian` is given (and in
+    /// [`LinearizationMode::Linearized`]), its Jacobian times `factor` added into it: what a
+    /// blend of two models needs, without copying either.
+    #[inline]
+    pub fn weighted(
+        &self,
+        y: &StateVector,
+        mode: LinearizationMode,
+        factor: Real,
+        jacobian: Option<&mut WrenchJacobian>,
+    ) -> Wrench {
+        self.evaluate(y, mode, factor, jacobian)
     }
 
     fn evaluate(
         &self,
         y: &StateVector,
         mode: LinearizationMode,
+        factor: Real,
         jacobian: Option<&mut WrenchJacobian>,
     ) -> Wrench {
+        let scale = self.scale * factor;
         if self.contact_count == 0 {
             return Wrench::zero();
         }
         match mode {
-            LinearizationMode::Constant => Wrench::new(
-                self.wrench0.force * self.scale,
-                self.wrench0.torque * self.scale,
-            ),
+            LinearizationMode::Constant => {
+                Wrench::new(self.wrench0.force * scale, self.wrench0.torque * scale)
+            }
             LinearizationMode::Linearized => {
                 let dy = y - self.y0;
                 let mut sum = WrenchVector::zeros();
@@ -410,10 +435,10 @@ impl LinearizedContact {
                         for t in self.tangents() {
                             sum += t.wrench_at(&dy, Some(&mut jac));
                         }
-                        *j += jac * self.scale;
+                        *j += jac * scale;
                     }
                 }
-                sum *= self.scale;
+                sum *= scale;
                 Wrench::new(sum.fixed_rows::<3>(0).into(), sum.fixed_rows::<3>(3).into())
             }
         }
@@ -497,6 +522,19 @@ mod tests {
                 );
             }
         }
+    }
+
+    #[test]
+    fn beyond_reach_is_deeper_than_the_cap() {
+        let mut lin = LinearizedContact::none();
+        lin.push(floor(1e-3)).unwrap();
+        let at = |z: Real| {
+            let mut y = StateVector::zeros();
+            y[2] = z;
+            lin.beyond_reach(&y)
+        };
+        assert!(!at(0.0) && !at(-0.9e-3) && !at(5e-3));
+        assert!(at(-1.1e-3));
     }
 
     #[test]

@@ -73,6 +73,12 @@ pub struct HapticForces {
     pub coupling: VirtualCoupling,
     /// The latest linearized contact model; [`LinearizedContact::none`] in free space.
     pub contact: LinearizedContact,
+    /// The model before it, blended out while `contact` is blended in (see
+    /// [`HapticForces::blend`]).
+    pub previous_contact: LinearizedContact,
+    /// Weight of `contact` against `previous_contact`, in `[0, 1]`: the contact wrench is
+    /// `blend · W(y) + (1 − blend) · W_previous(y)`, and so its Jacobian. 1 uses `contact` alone.
+    pub blend: Real,
     /// How the contact model is used between updates.
     pub mode: LinearizationMode,
     /// Gravitational acceleration (m/s²), `None` for a gravity-compensated tool (the default).
@@ -85,9 +91,25 @@ impl HapticForces {
         Self {
             coupling,
             contact: LinearizedContact::none(),
+            previous_contact: LinearizedContact::none(),
+            blend: 1.0,
             mode: LinearizationMode::Linearized,
             gravity: None,
         }
+    }
+
+    /// The contact wrench at `y` (blended), and its Jacobian added into `jacobian` if given.
+    fn contact_wrench(&self, y: &StateVector, mut jacobian: Option<&mut WrenchJacobian>) -> Wrench {
+        let b = self.blend.clamp(0.0, 1.0);
+        let mut w = self
+            .contact
+            .weighted(y, self.mode, b, jacobian.as_deref_mut());
+        if b < 1.0 {
+            w += self
+                .previous_contact
+                .weighted(y, self.mode, 1.0 - b, jacobian);
+        }
+        w
     }
 
     fn gravity_force(&self, body: &RigidBody) -> Vec3 {
@@ -105,7 +127,7 @@ impl ForceModel for HapticForces {
         kin: &Kinematics,
     ) -> Wrench {
         let mut w = self.coupling.evaluate(body, y, kin, None);
-        w += self.contact.wrench_at(y, self.mode);
+        w += self.contact_wrench(y, None);
         w.force += self.gravity_force(body);
         w
     }
@@ -119,7 +141,7 @@ impl ForceModel for HapticForces {
         jacobian: &mut WrenchJacobian,
     ) -> Wrench {
         let mut w = self.coupling.evaluate(body, y, kin, Some(jacobian));
-        w += self.contact.add_wrench_and_jacobian(y, self.mode, jacobian);
+        w += self.contact_wrench(y, Some(jacobian));
         w.force += self.gravity_force(body);
         w
     }
@@ -197,5 +219,49 @@ mod tests {
         let w = g.wrench_and_jacobian(&body, 0.0, &y, &kin, &mut j);
         assert_eq!(w.force, Vec3::new(0.0, 0.0, -19.62));
         assert_eq!(j, WrenchJacobian::zeros());
+    }
+
+    #[test]
+    fn a_blend_weighs_the_two_models_and_their_jacobians() {
+        let (body, tool, mut forces) = setup();
+        let y = tool.to_vector();
+        let model = |f: Real, k: Real| {
+            let mut m = LinearizedContact::none();
+            m.y0 = y;
+            let mut j = WrenchJacobian::zeros();
+            j[(2, 2)] = -k;
+            j[(3, 1)] = 0.1 * k;
+            m.push(
+                ContactTangent::new(
+                    -Vec3::z(),
+                    Wrench::new(Vec3::new(0.0, 0.0, f), Vec3::new(0.01, 0.0, 0.0)),
+                    j,
+                    1e-3,
+                )
+                .unwrap(),
+            )
+            .unwrap();
+            m
+        };
+        forces.previous_contact = model(1.0, 1000.0);
+        forces.contact = model(3.0, 4000.0);
+        forces.blend = 0.3;
+        let mut y1 = y;
+        y1[2] -= 1e-4;
+        let kin1 = Kinematics::new(&body, &y1);
+        let mut j = WrenchJacobian::zeros();
+        let w = forces.wrench_and_jacobian(&body, 0.0, &y1, &kin1, &mut j);
+        let coupling_z = 200.0 * 1e-4;
+        let expected = 0.3 * (3.0 + 0.4) + 0.7 * (1.0 + 0.1) + coupling_z;
+        assert!(
+            (w.force.z - expected).abs() < 1e-9,
+            "{} vs {expected}",
+            w.force.z
+        );
+        assert!((j[(2, 2)] - (-(0.3 * 4000.0 + 0.7 * 1000.0) - 200.0)).abs() < 1e-6);
+        // Blend 1: the new model alone; the previous one is not evaluated.
+        forces.blend = 1.0;
+        let w1 = forces.wrench(&body, 0.0, &y1, &kin1);
+        assert!((w1.force.z - (3.4 + coupling_z)).abs() < 1e-9);
     }
 }

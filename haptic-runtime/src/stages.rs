@@ -233,6 +233,14 @@ pub struct SafetyConfig {
     /// observer finds that the simulation has generated energy, a variable damping on the wrench
     /// sent dissipates exactly that energy in the same step. Off by default.
     pub passivity_controller: bool,
+    /// Blend a contact model that arrives *late* in over the interval since the previous one (a
+    /// linear cross-fade of the two models' wrenches and Jacobians), instead of switching at
+    /// once. Late: at the tool's current state some contact is pressed beyond its tangent's
+    /// reach ([`haptic_core::LinearizedContact::beyond_reach`]), because the tool moved more than
+    /// `δ` between two queries into a surface the earlier query could not see; switching at once
+    /// would apply the whole penalty force of that depth in one step, which throws a light tool
+    /// out. Models that arrive in time switch at once (no added latency). On by default.
+    pub contact_blend: bool,
 }
 
 impl Default for SafetyConfig {
@@ -242,6 +250,7 @@ impl Default for SafetyConfig {
             contact_fade_s: 0.1,
             divergence_bound_m: 0.5,
             passivity_controller: false,
+            contact_blend: true,
         }
     }
 }
@@ -258,6 +267,9 @@ pub struct HapticStage<I, D> {
     safety: SafetyConfig,
     contact: ContactUpdate,
     contact_received_s: Real,
+    /// How long the newest contact model takes to blend in (s): the interval since the one
+    /// before.
+    contact_blend_s: Real,
     last_wrench: Wrench,
     /// Statistics of the run so far.
     pub stats: HapticStats,
@@ -284,6 +296,7 @@ impl<I: Integrator, D: Device> HapticStage<I, D> {
             safety,
             contact: ContactUpdate::none(),
             contact_received_s: 0.0,
+            contact_blend_s: 0.0,
             last_wrench: Wrench::zero(),
             stats: HapticStats::default(),
         }
@@ -323,8 +336,19 @@ impl<I: Integrator, D: Device> HapticStage<I, D> {
     #[inline]
     pub fn receive_contact(&mut self, update: &ContactUpdate, now_s: Real) {
         if update.seq != self.contact.seq {
+            // Blend the new model in over the time the last one lasted (see
+            // `SafetyConfig::contact_blend`).
+            self.contact_blend_s =
+                (now_s - self.contact_received_s).clamp(0.0, self.safety.contact_timeout_s);
             self.contact = *update;
             self.contact_received_s = now_s;
+            let late = update.model.beyond_reach(&self.tool.to_vector());
+            if self.safety.contact_blend && late && self.contact_blend_s > 0.0 {
+                self.forces.previous_contact = self.forces.contact;
+                self.forces.blend = 0.0;
+            } else {
+                self.forces.blend = 1.0;
+            }
             self.forces.contact = update.model;
         }
     }
@@ -366,8 +390,15 @@ impl<I: Integrator, D: Device> HapticStage<I, D> {
         if self.forces.coupling.set_device(&reading).is_err() {
             return self.zero_force_step(false);
         }
-        // 3. The linearized contact model, faded when stale.
+        // 3. The linearized contact model, blended in after an update, faded when stale.
         let age_s = now_s - self.contact_received_s;
+        if self.forces.blend < 1.0 {
+            self.forces.blend = if self.contact_blend_s > 0.0 {
+                ((age_s + dt_s) / self.contact_blend_s).clamp(0.0, 1.0)
+            } else {
+                1.0
+            };
+        }
         if age_s > self.safety.contact_timeout_s && !self.contact.model.is_empty() {
             self.stats.stale_steps += 1;
             let fade = (1.0 - (age_s - self.safety.contact_timeout_s) / self.safety.contact_fade_s)

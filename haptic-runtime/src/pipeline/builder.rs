@@ -137,6 +137,8 @@ impl<I: Integrator, B: CollisionBackend, C: ContactModel, D: Device> PipelineBui
         let forces = HapticForces {
             coupling,
             contact: haptic_core::LinearizedContact::none(),
+            previous_contact: haptic_core::LinearizedContact::none(),
+            blend: 1.0,
             mode: config.linearization,
             gravity: config.gravity,
         };
