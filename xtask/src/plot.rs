@@ -10,6 +10,8 @@ pub struct Series {
     pub name: String,
     /// Points `(x, y)`.
     pub points: Vec<(f64, f64)>,
+    /// A label per point (drawn beside it, marked with a dot), or none.
+    pub point_labels: Vec<String>,
 }
 
 impl Series {
@@ -18,8 +20,81 @@ impl Series {
         Self {
             name: name.into(),
             points,
+            point_labels: Vec::new(),
         }
     }
+
+    /// The same series with a label beside each point (as many labels as points), for curves
+    /// whose points mean something (each threshold of a work-precision curve).
+    pub fn with_point_labels(mut self, labels: Vec<String>) -> Self {
+        self.point_labels = labels;
+        self
+    }
+}
+
+/// A tick label that reads at a glance: up to three significant digits, no float noise
+/// (`9.999999999999999e-5` is `1e-4`), plain notation from 0.001 to 10,000.
+pub fn tick_label(v: f64) -> String {
+    if v == 0.0 || !v.is_finite() {
+        return if v == 0.0 {
+            "0".to_owned()
+        } else {
+            format!("{v}")
+        };
+    }
+    let a = v.abs();
+    let exp = a.log10().floor();
+    // Round to three significant digits first, so that 9.9999e-5 becomes 1e-4.
+    let scale = 10f64.powf(exp - 2.0);
+    let r = (v / scale).round() * scale;
+    let (a, exp) = (r.abs(), r.abs().log10().floor());
+    if (1e-3..1e4).contains(&a) {
+        let decimals = (2.0 - exp).max(0.0) as usize;
+        let s = format!("{r:.decimals$}");
+        if s.contains('.') {
+            s.trim_end_matches('0').trim_end_matches('.').to_owned()
+        } else {
+            s
+        }
+    } else {
+        let mantissa = r / 10f64.powf(exp);
+        let m = format!("{mantissa:.2}");
+        let m = m.trim_end_matches('0').trim_end_matches('.');
+        format!("{m}e{}", exp as i32)
+    }
+}
+
+/// Tick positions of a base-10 log axis over `[lo, hi]`: 1, 2 and 5 times the powers of ten
+/// (1, 2, 3, 5 when the range spans less than a decade and a half; every integer mantissa when
+/// that still gives fewer than three), at least two.
+fn log_ticks(lo: f64, hi: f64) -> Vec<f64> {
+    let within = |mantissas: &[f64]| {
+        let mut out = Vec::new();
+        let (e0, e1) = (lo.log10().floor() as i32, hi.log10().ceil() as i32);
+        for e in e0..=e1 {
+            for m in mantissas {
+                let v = m * 10f64.powi(e);
+                if v >= lo * (1.0 - 1e-9) && v <= hi * (1.0 + 1e-9) {
+                    out.push(v);
+                }
+            }
+        }
+        out
+    };
+    let mut out = if hi / lo < 30.0 {
+        within(&[1.0, 2.0, 3.0, 5.0])
+    } else if hi / lo < 1e4 {
+        within(&[1.0, 2.0, 5.0])
+    } else {
+        within(&[1.0])
+    };
+    if out.len() < 3 {
+        out = within(&[1.0, 2.0, 3.0, 4.0, 5.0, 6.0, 7.0, 8.0, 9.0]);
+    }
+    if out.len() < 2 {
+        out = vec![lo, (lo * hi).sqrt(), hi];
+    }
+    out
 }
 
 /// Axis scale.
@@ -93,17 +168,23 @@ pub fn line_chart(path: &Path, chart: &Chart<'_>, series: &[Series]) -> anyhow::
     let root = SVGBackend::new(path, (900, 560)).into_drawing_area();
     root.fill(&WHITE).map_err(|e| anyhow::anyhow!("{e}"))?;
     let mut builder = ChartBuilder::on(&root);
+    // A title that fits the 900 px width: about 0.55 em per character.
+    let title_px = (22.0_f64).min(860.0 / (0.55 * chart.title.chars().count().max(1) as f64));
     builder
-        .caption(chart.title, ("sans-serif", 22))
-        .margin(12)
-        .x_label_area_size(48)
-        .y_label_area_size(80);
+        .caption(chart.title, ("sans-serif", title_px.max(11.0) as u32))
+        .margin(16)
+        .x_label_area_size(52)
+        .y_label_area_size(84);
     macro_rules! draw {
         ($ctx:expr) => {{
             let mut ctx = $ctx.map_err(|e| anyhow::anyhow!("{e}"))?;
             ctx.configure_mesh()
                 .x_desc(chart.x_label)
                 .y_desc(chart.y_label)
+                .x_label_formatter(&|v| tick_label(*v))
+                .y_label_formatter(&|v| tick_label(*v))
+                .label_style(("sans-serif", 14))
+                .axis_desc_style(("sans-serif", 16))
                 .draw()
                 .map_err(|e| anyhow::anyhow!("{e}"))?;
             for (i, s) in series.iter().enumerate() {
@@ -114,12 +195,25 @@ pub fn line_chart(path: &Path, chart: &Chart<'_>, series: &[Series]) -> anyhow::
                     .copied()
                     .filter(|p| keep(chart.x_scale, p.0) && keep(chart.y_scale, p.1))
                     .collect();
-                ctx.draw_series(LineSeries::new(pts, color.stroke_width(2)))
+                ctx.draw_series(LineSeries::new(pts.clone(), color.stroke_width(2)))
                     .map_err(|e| anyhow::anyhow!("{e}"))?
                     .label(s.name.clone())
                     .legend(move |(x, y)| {
                         PathElement::new(vec![(x, y), (x + 20, y)], color.stroke_width(2))
                     });
+                if !s.point_labels.is_empty() {
+                    let labelled = s
+                        .points
+                        .iter()
+                        .zip(&s.point_labels)
+                        .filter(|(p, _)| keep(chart.x_scale, p.0) && keep(chart.y_scale, p.1));
+                    ctx.draw_series(labelled.map(|(p, text)| {
+                        EmptyElement::at(*p)
+                            + Circle::new((0, 0), 4, color.filled())
+                            + Text::new(text.clone(), (6, -16), ("sans-serif", 13))
+                    }))
+                    .map_err(|e| anyhow::anyhow!("{e}"))?;
+                }
             }
             ctx.configure_series_labels()
                 .background_style(WHITE.mix(0.8))
@@ -128,19 +222,94 @@ pub fn line_chart(path: &Path, chart: &Chart<'_>, series: &[Series]) -> anyhow::
                 .map_err(|e| anyhow::anyhow!("{e}"))?;
         }};
     }
+    let (xt, yt) = (log_ticks(x0, x1), log_ticks(y0, y1));
     match (chart.x_scale, chart.y_scale) {
         (Scale::Linear, Scale::Linear) => draw!(builder.build_cartesian_2d(x0..x1, y0..y1)),
         (Scale::Linear, Scale::Log) => {
-            draw!(builder.build_cartesian_2d(x0..x1, (y0..y1).log_scale()))
+            draw!(builder.build_cartesian_2d(x0..x1, (y0..y1).log_scale().with_key_points(yt)))
         }
         (Scale::Log, Scale::Linear) => {
-            draw!(builder.build_cartesian_2d((x0..x1).log_scale(), y0..y1))
+            draw!(builder.build_cartesian_2d((x0..x1).log_scale().with_key_points(xt), y0..y1))
         }
-        (Scale::Log, Scale::Log) => {
-            draw!(builder.build_cartesian_2d((x0..x1).log_scale(), (y0..y1).log_scale()))
-        }
+        (Scale::Log, Scale::Log) => draw!(builder.build_cartesian_2d(
+            (x0..x1).log_scale().with_key_points(xt),
+            (y0..y1).log_scale().with_key_points(yt)
+        )),
     }
     root.present().map_err(|e| anyhow::anyhow!("{e}"))?;
     println!("wrote {}", path.display());
     Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn tick_labels_read_at_a_glance() {
+        assert_eq!(tick_label(9.999999999999999e-5), "1e-4");
+        assert_eq!(tick_label(0.30000000000000004), "0.3");
+        assert_eq!(tick_label(2.5e-6), "2.5e-6");
+        assert_eq!(tick_label(1234.0), "1230");
+        assert_eq!(tick_label(0.001), "0.001");
+        assert_eq!(tick_label(0.0), "0");
+        assert_eq!(tick_label(-0.05), "-0.05");
+        assert_eq!(tick_label(20000.0), "2e4");
+    }
+
+    #[test]
+    fn log_ticks_cover_short_ranges() {
+        assert_eq!(log_ticks(0.04, 0.2), vec![0.05, 0.1, 0.2]);
+        assert_eq!(log_ticks(0.504, 0.927).len(), 4); // 0.6 to 0.9
+        let t = log_ticks(1e-4, 1.0);
+        assert!(
+            t.contains(&1e-4) && t.contains(&1.0) && t.len() >= 5,
+            "{t:?}"
+        );
+        assert!(log_ticks(0.011, 0.019).len() >= 2);
+    }
+
+    /// Every chart kind holds tick labels on both axes, and none with float noise.
+    #[test]
+    fn charts_have_tick_labels_on_both_axes() {
+        let dir = std::env::temp_dir().join(format!("haptic-plot-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        for (i, (xs, ys)) in [
+            (Scale::Linear, Scale::Linear),
+            (Scale::Log, Scale::Log),
+            (Scale::Linear, Scale::Log),
+        ]
+        .into_iter()
+        .enumerate()
+        {
+            let path = dir.join(format!("c{i}.svg"));
+            let pts: Vec<(f64, f64)> = (1..40)
+                .map(|k| (1e-4 * 1.3f64.powi(k), 0.07 * 1.1f64.powi(k)))
+                .collect();
+            line_chart(
+                &path,
+                &Chart {
+                    title: "A chart with a title long enough that it would not fit at the default size",
+                    x_label: "x (s)",
+                    y_label: "y (N)",
+                    x_scale: xs,
+                    y_scale: ys,
+                },
+                &[Series::new("curve", pts)],
+            )
+            .unwrap();
+            let svg = std::fs::read_to_string(&path).unwrap();
+            let texts: Vec<&str> = svg
+                .split("<text")
+                .skip(1)
+                .filter_map(|t| t.split('>').nth(1)?.split('<').next())
+                .collect();
+            let numeric = texts
+                .iter()
+                .filter(|t| t.trim().parse::<f64>().is_ok())
+                .count();
+            assert!(numeric >= 6, "{xs:?}/{ys:?}: tick labels {texts:?}");
+            assert!(!svg.contains("99999"), "float noise in {xs:?}/{ys:?}");
+        }
+    }
 }

@@ -198,10 +198,17 @@ pub fn run(args: &super::CollisionArgs, out: &crate::OutArgs) -> anyhow::Result<
     };
     common::write_json(&dir.join("collision.json"), &report)?;
 
-    let lod_points: Vec<(f64, f64)> = rows
+    let lod_rows: Vec<&Row> = rows
         .iter()
-        .filter(|r| r.backend == "lod")
+        .filter(|r| r.backend == "lod" && r.wrench_error_rel_median > 0.0)
+        .collect();
+    let lod_points: Vec<(f64, f64)> = lod_rows
+        .iter()
         .map(|r| (r.wrench_error_rel_median, r.median_s * 1e3))
+        .collect();
+    let lod_labels: Vec<String> = lod_rows
+        .iter()
+        .map(|r| format!("{} %", crate::plot::tick_label(r.threshold * 100.0)))
         .collect();
     // Parry has one point: drawn as a horizontal line at its median time across the LOD range
     // (a single point would not show in a line chart); its own error is in the legend.
@@ -221,7 +228,7 @@ pub fn run(args: &super::CollisionArgs, out: &crate::OutArgs) -> anyhow::Result<
         &dir.join("collision_work_precision.svg"),
         &Chart {
             title: &format!(
-                "Collision queries, {} (thresholds 5 %, 2.5 %, 1 %, 0.4 %; 0 has no error)",
+                "Collision queries, {}: time against wrench error (threshold 0 is the reference)",
                 scene.name
             ),
             x_label: "median wrench error relative to LOD at threshold 0",
@@ -230,7 +237,8 @@ pub fn run(args: &super::CollisionArgs, out: &crate::OutArgs) -> anyhow::Result<
             y_scale: Scale::Log,
         },
         &[
-            Series::new("LOD", lod_points),
+            Series::new("LOD (threshold beside each point)", lod_points)
+                .with_point_labels(lod_labels),
             Series::new(
                 format!("parry (median time; its own error {parry_err:.2})"),
                 parry_points,
