@@ -32,19 +32,54 @@ pub fn write(args: &crate::OutArgs) -> anyhow::Result<()> {
     writeln!(md, "## Free space (Fig. 3)\n")?;
     writeln!(
         md,
-        "| integrator | smallest stable mass, ours | the paper |"
+        "| integrator | stable above (ours) | stable masses | unstable runs: rule that failed | stable but lagging | the paper |"
     )?;
-    writeln!(md, "|---|---|---|")?;
+    writeln!(md, "|---|---|---|---|---|---|")?;
+    let grams = |v: &serde_json::Value| {
+        v.as_f64()
+            .map_or("none".to_owned(), |m| format!("{:.1} g", m * 1e3))
+    };
     for (key, paper) in [
         ("backward_euler", "1 g is stable"),
         ("newton_backward_euler", "(not in the paper)"),
         ("rk4", "> 70 g"),
         ("forward_euler", "> 100 g"),
     ] {
+        let r = &free[key];
+        let lightest = r["rows"][0]["mass_kg"].as_f64();
+        let min = match (r["min_stable_mass_kg"].as_f64(), lightest) {
+            (Some(m), Some(l)) if m <= l => format!("≤ {:.1} g (every swept mass)", m * 1e3),
+            _ => grams(&r["min_stable_mass_kg"]),
+        };
+        let ranges: Vec<String> = r["stable_mass_ranges_kg"]
+            .as_array()
+            .into_iter()
+            .flatten()
+            .map(|p| format!("{}–{}", grams(&p[0]), grams(&p[1])))
+            .collect();
+        let mut rules: Vec<String> = Vec::new();
+        for row in r["rows"].as_array().into_iter().flatten() {
+            if let Some(rule) = row["divergence"].as_str() {
+                let entry = rule.to_string();
+                if !rules.contains(&entry) {
+                    rules.push(entry);
+                }
+            }
+        }
+        let lagging = r["lagging_masses_kg"].as_array().map_or(0, Vec::len);
         writeln!(
             md,
-            "| {key} | {:.1} g | {paper} |",
-            f(&free[key]["min_stable_mass_kg"]) * 1e3
+            "| {key} | {min} | {} | {} | {lagging} | {paper} |",
+            if ranges.is_empty() {
+                "none".to_owned()
+            } else {
+                ranges.join(", ")
+            },
+            if rules.is_empty() {
+                "–".to_owned()
+            } else {
+                rules.join(", ")
+            },
         )?;
     }
     writeln!(

@@ -29,6 +29,10 @@ const TRACKING_ANGLE_RAD: Real = std::f64::consts::FRAC_PI_2;
 const ENERGY_GROWTH_LIMIT: Real = 10.0;
 /// The share of the motion at its end whose energy is compared with the rest.
 const ENERGY_TAIL_FRACTION: Real = 0.2;
+/// The energy before the tail is counted as at least the coupling's at this deviation (m)...
+const TRACKING_FLOOR_M: Real = 1e-3;
+/// ... and this angle (rad).
+const TRACKING_FLOOR_RAD: Real = 1e-2;
 
 /// The rule that made a run unstable.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
@@ -213,7 +217,20 @@ pub(crate) fn simulate(
     res.rms_force_n = (s_f / k).sqrt();
     res.rms_torque_nm = (s_t / k).sqrt();
     res.mean_step_us = step_time.as_secs_f64() * 1e6 / k;
-    if res.divergence.is_none() && e_tail > ENERGY_GROWTH_LIMIT * e_head + 1e-12 {
+    // The floor: the coupling energy of a tool tracking within 1 mm and 0.01 rad, or the kinetic
+    // energy of a tool moving with the hand at its fastest, whichever is larger; so that a hand at
+    // rest before it moves (energy ≈ 0 at the start) does not read as growth.
+    let i_max = body.inertia_body().symmetric_eigenvalues().max();
+    let hand_kinetic_j = traj.iter().fold(0.0_f64, |e, d| {
+        e.max(
+            0.5 * mass_kg * d.twist.linear.norm_squared()
+                + 0.5 * i_max * d.twist.angular.norm_squared(),
+        )
+    });
+    let floor_j = (0.5 * params.stiffness_n_per_m * TRACKING_FLOOR_M.powi(2)
+        + 0.5 * params.angular_stiffness_nm_per_rad * TRACKING_FLOOR_RAD.powi(2))
+    .max(hand_kinetic_j);
+    if res.divergence.is_none() && e_tail > ENERGY_GROWTH_LIMIT * e_head.max(floor_j) {
         diverge(
             &mut res,
             Divergence::EnergyGrowth,
@@ -236,7 +253,9 @@ pub(crate) fn rules() -> String {
     format!(
         "stable: every step succeeds with a finite state, the coupling deviation stays within \
          {RUNAWAY_DEVIATION_M} m, and the coupling energy's maximum over the last {:.0} % of the \
-         motion is at most {ENERGY_GROWTH_LIMIT} x its maximum before; tracks: deviation within \
+         motion is at most {ENERGY_GROWTH_LIMIT} x its maximum before (counted as at least the \
+         energy of a {TRACKING_FLOOR_M} m, {TRACKING_FLOOR_RAD} rad deviation, and at least the \
+         kinetic energy of the tool moving with the hand at its fastest); tracks: deviation within \
          {TRACKING_DEVIATION_M} m and angle within pi/2 (a stable run may lag beyond them)",
         100.0 * ENERGY_TAIL_FRACTION
     )
@@ -283,6 +302,36 @@ mod tests {
         assert_eq!(min_stable_mass(&[(1.0, true), (2.0, false)]), None);
         assert_eq!(stable_ranges(&rows), vec![[1.0, 1.0], [3.0, 4.0]]);
         assert_eq!(stable_ranges(&[(1.0, false)]), Vec::<[Real; 2]>::new());
+    }
+
+    /// A hand at rest until the last fifth of the motion, then moving: the energy before is about
+    /// zero, which must not read as growth.
+    #[test]
+    fn a_hand_that_starts_late_is_not_energy_growth() {
+        let traj: Vec<DeviceState> = (0..=1000)
+            .map(|n| {
+                let t = n as Real / RATE_HZ;
+                let s = ((t - 0.8) / 0.2).clamp(0.0, 1.0);
+                let (p, dp, _) = haptic_device::min_jerk(s);
+                let mut d =
+                    DeviceState::at_rest(Pose::from_position(Vec3::new(0.05 * p, 0.0, 0.0)), t);
+                d.twist.linear.x = 0.05 * dp / 0.2;
+                d
+            })
+            .collect();
+        let inertia = Mat3::from_diagonal(&Vec3::new(4e-3, 1e-4, 4e-3));
+        for kind in [IntegratorKind::LinearizedBackwardEuler, IntegratorKind::Rk4] {
+            let r = simulate(
+                kind,
+                &inertia,
+                &CouplingParams::default(),
+                0.1,
+                &traj,
+                false,
+            )
+            .unwrap();
+            assert!(r.stable, "{kind}: {:?}", r.divergence_detail);
+        }
     }
 
     /// A fast turn (3 rad back and forth twice a second, 19 rad/s peak) that a heavy, long tool
