@@ -80,15 +80,10 @@ impl RigidBody {
     /// A solid sphere of mass `mass_kg` and radius `radius_m`, handy for tests and examples.
     ///
     /// # Errors
-    /// As [`RigidBody::new`], and [`CoreError::OutOfRange`] for a radius that is not positive.
+    /// As [`RigidBody::new`], and [`CoreError::NonFinite`] or [`CoreError::OutOfRange`] for a
+    /// radius that is not positive and finite.
     pub fn sphere(mass_kg: Real, radius_m: Real) -> Result<Self, CoreError> {
-        if !(radius_m > 0.0 && radius_m.is_finite()) {
-            return Err(CoreError::OutOfRange {
-                what: "radius_m",
-                value: radius_m,
-                expected: "positive and finite",
-            });
-        }
+        crate::check::positive("sphere.radius_m", radius_m)?;
         let i = 0.4 * mass_kg * radius_m * radius_m;
         Self::from_principal(mass_kg, [i, i, i])
     }
@@ -223,8 +218,14 @@ mod tests {
         assert!(matches!(
             RigidBody::sphere(1.0, 0.0),
             Err(CoreError::OutOfRange {
-                what: "radius_m",
+                what: "sphere.radius_m",
                 ..
+            })
+        ));
+        assert!(matches!(
+            RigidBody::sphere(1.0, f64::NAN),
+            Err(CoreError::NonFinite {
+                what: "sphere.radius_m"
             })
         ));
     }

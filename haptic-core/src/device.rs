@@ -32,46 +32,20 @@ impl DeviceLimits {
         workspace_max_m: Vec3,
         nominal_rate_hz: Real,
     ) -> Result<Self, CoreError> {
-        for (what, v) in [
-            ("max_force_n", max_force_n),
-            ("max_torque_nm", max_torque_nm),
-            ("nominal_rate_hz", nominal_rate_hz),
-        ] {
-            if !v.is_finite() {
-                return Err(CoreError::NonFinite { what });
-            }
-        }
-        if workspace_min_m
-            .iter()
-            .chain(workspace_max_m.iter())
-            .any(|v| !v.is_finite())
-        {
-            return Err(CoreError::NonFinite { what: "workspace" });
-        }
-        if max_force_n < 0.0 {
-            return Err(CoreError::OutOfRange {
-                what: "max_force_n",
-                value: max_force_n,
-                expected: ">= 0",
-            });
-        }
-        if max_torque_nm < 0.0 {
-            return Err(CoreError::OutOfRange {
-                what: "max_torque_nm",
-                value: max_torque_nm,
-                expected: ">= 0",
-            });
-        }
-        if nominal_rate_hz <= 0.0 {
-            return Err(CoreError::OutOfRange {
-                what: "nominal_rate_hz",
-                value: nominal_rate_hz,
-                expected: "> 0",
-            });
-        }
+        use crate::check;
+        check::non_negative("limits.max_force_n", max_force_n)?;
+        check::non_negative("limits.max_torque_nm", max_torque_nm)?;
+        check::positive("limits.nominal_rate_hz", nominal_rate_hz)?;
+        check::all_finite(
+            "limits.workspace",
+            workspace_min_m
+                .iter()
+                .chain(workspace_max_m.iter())
+                .copied(),
+        )?;
         if (0..3).any(|i| workspace_min_m[i] >= workspace_max_m[i]) {
             return Err(CoreError::OutOfRange {
-                what: "workspace",
+                what: "limits.workspace",
                 value: (workspace_max_m - workspace_min_m).min(),
                 expected: "min < max on every axis",
             });
@@ -222,40 +196,42 @@ mod tests {
         assert!(matches!(
             DeviceLimits::new(-1.0, 0.5, lo, hi, 1000.0),
             Err(CoreError::OutOfRange {
-                what: "max_force_n",
+                what: "limits.max_force_n",
                 ..
             })
         ));
         assert!(matches!(
             DeviceLimits::new(1.0, -0.5, lo, hi, 1000.0),
             Err(CoreError::OutOfRange {
-                what: "max_torque_nm",
+                what: "limits.max_torque_nm",
                 ..
             })
         ));
         assert!(matches!(
             DeviceLimits::new(1.0, 0.5, lo, hi, 0.0),
             Err(CoreError::OutOfRange {
-                what: "nominal_rate_hz",
+                what: "limits.nominal_rate_hz",
                 ..
             })
         ));
         assert!(matches!(
             DeviceLimits::new(Real::NAN, 0.5, lo, hi, 1000.0),
             Err(CoreError::NonFinite {
-                what: "max_force_n"
+                what: "limits.max_force_n"
             })
         ));
         assert!(matches!(
             DeviceLimits::new(1.0, 0.5, hi, lo, 1000.0),
             Err(CoreError::OutOfRange {
-                what: "workspace",
+                what: "limits.workspace",
                 ..
             })
         ));
         assert!(matches!(
             DeviceLimits::new(1.0, 0.5, lo, Vec3::new(Real::NAN, 0.0, 0.0), 1000.0),
-            Err(CoreError::NonFinite { what: "workspace" })
+            Err(CoreError::NonFinite {
+                what: "limits.workspace"
+            })
         ));
     }
 

@@ -21,10 +21,10 @@ use crate::scripted::{ScriptedDevice, check_state};
 /// |---|---|---|
 /// | `mass_kg` | 0.5 kg | 0.1 – 2 kg effective endpoint mass |
 /// | `stiffness_n_per_m` | 300 N/m | 100 – 800 N/m (relaxed to moderate grasp) |
-/// | `damping_n_s_per_m` | 8 N s/m | 2 – 20 N s/m |
+/// | `damping_ns_per_m` | 8 N s/m | 2 – 20 N s/m |
 /// | `inertia_kg_m2` | 2·10⁻³ kg m² | 1 – 5·10⁻³ kg m² (hand about the wrist) |
-/// | `rot_stiffness_nm_per_rad` | 1.0 N m/rad | 0.3 – 5 N m/rad (wrist, grip dependent) |
-/// | `rot_damping_nm_s_per_rad` | 0.03 N m s/rad | 0.01 – 0.1 N m s/rad |
+/// | `angular_stiffness_nm_per_rad` | 1.0 N m/rad | 0.3 – 5 N m/rad (wrist, grip dependent) |
+/// | `angular_damping_nms_per_rad` | 0.03 N m s/rad | 0.01 – 0.1 N m s/rad |
 ///
 /// Natural frequencies 24.5 rad/s and 22.4 rad/s (3.9 Hz, 3.6 Hz), damping ratios 0.33 and
 /// 0.34.
@@ -35,13 +35,13 @@ pub struct HandParams {
     /// Translational grasp-and-arm stiffness (N/m).
     pub stiffness_n_per_m: Real,
     /// Translational damping (N s/m).
-    pub damping_n_s_per_m: Real,
+    pub damping_ns_per_m: Real,
     /// Rotational inertia about the grasp point (kg m²), isotropic.
     pub inertia_kg_m2: Real,
     /// Rotational stiffness (N m/rad).
-    pub rot_stiffness_nm_per_rad: Real,
+    pub angular_stiffness_nm_per_rad: Real,
     /// Rotational damping (N m s/rad).
-    pub rot_damping_nm_s_per_rad: Real,
+    pub angular_damping_nms_per_rad: Real,
     /// Largest internal integration step (s). A read advances the hand from its previous time
     /// to `now_s` in `⌈Δt / max_substep_s⌉` equal sub-steps.
     pub max_substep_s: Real,
@@ -52,10 +52,10 @@ impl Default for HandParams {
         Self {
             mass_kg: 0.5,
             stiffness_n_per_m: 300.0,
-            damping_n_s_per_m: 8.0,
+            damping_ns_per_m: 8.0,
             inertia_kg_m2: 2e-3,
-            rot_stiffness_nm_per_rad: 1.0,
-            rot_damping_nm_s_per_rad: 0.03,
+            angular_stiffness_nm_per_rad: 1.0,
+            angular_damping_nms_per_rad: 0.03,
             max_substep_s: 2.5e-4,
         }
     }
@@ -72,19 +72,25 @@ impl HandParams {
     /// [`DeviceError::Parameter`] for a non-positive or non-finite value, or for a sub-step too
     /// long for the stiffness (`ω_n · max_substep_s >` [`MAX_OMEGA_DT`]).
     pub fn validate(&self) -> Result<(), DeviceError> {
-        haptic_core::check::positive("mass_kg", self.mass_kg)?;
-        haptic_core::check::positive("stiffness_n_per_m", self.stiffness_n_per_m)?;
-        haptic_core::check::positive("damping_n_s_per_m", self.damping_n_s_per_m)?;
-        haptic_core::check::positive("inertia_kg_m2", self.inertia_kg_m2)?;
-        haptic_core::check::positive("rot_stiffness_nm_per_rad", self.rot_stiffness_nm_per_rad)?;
-        haptic_core::check::positive("rot_damping_nm_s_per_rad", self.rot_damping_nm_s_per_rad)?;
-        haptic_core::check::positive("max_substep_s", self.max_substep_s)?;
+        haptic_core::check::positive("hand.mass_kg", self.mass_kg)?;
+        haptic_core::check::positive("hand.stiffness_n_per_m", self.stiffness_n_per_m)?;
+        haptic_core::check::positive("hand.damping_ns_per_m", self.damping_ns_per_m)?;
+        haptic_core::check::positive("hand.inertia_kg_m2", self.inertia_kg_m2)?;
+        haptic_core::check::positive(
+            "hand.angular_stiffness_nm_per_rad",
+            self.angular_stiffness_nm_per_rad,
+        )?;
+        haptic_core::check::positive(
+            "hand.angular_damping_nms_per_rad",
+            self.angular_damping_nms_per_rad,
+        )?;
+        haptic_core::check::positive("hand.max_substep_s", self.max_substep_s)?;
         let w = self
             .natural_frequency_rad_s()
             .max(self.rot_natural_frequency_rad_s());
         if w * self.max_substep_s > MAX_OMEGA_DT {
             return Err(DeviceError::Parameter(haptic_core::CoreError::OutOfRange {
-                what: "max_substep_s",
+                what: "hand.max_substep_s",
                 value: self.max_substep_s,
                 expected: "<= 0.2 / natural frequency",
             }));
@@ -99,18 +105,18 @@ impl HandParams {
 
     /// Rotational natural frequency `√(k_θ/I)` (rad/s).
     pub fn rot_natural_frequency_rad_s(&self) -> Real {
-        (self.rot_stiffness_nm_per_rad / self.inertia_kg_m2).sqrt()
+        (self.angular_stiffness_nm_per_rad / self.inertia_kg_m2).sqrt()
     }
 
     /// Translational damping ratio `b / 2√(k m)`.
     pub fn damping_ratio(&self) -> Real {
-        self.damping_n_s_per_m / (2.0 * (self.stiffness_n_per_m * self.mass_kg).sqrt())
+        self.damping_ns_per_m / (2.0 * (self.stiffness_n_per_m * self.mass_kg).sqrt())
     }
 
     /// Rotational damping ratio `b_θ / 2√(k_θ I)`.
     pub fn rot_damping_ratio(&self) -> Real {
-        self.rot_damping_nm_s_per_rad
-            / (2.0 * (self.rot_stiffness_nm_per_rad * self.inertia_kg_m2).sqrt())
+        self.angular_damping_nms_per_rad
+            / (2.0 * (self.angular_stiffness_nm_per_rad * self.inertia_kg_m2).sqrt())
     }
 
     /// Steady deflection of the handle under a constant force `f_n` (N): `f / k` (m).
@@ -120,7 +126,7 @@ impl HandParams {
 
     /// Steady rotation of the handle under a constant torque `t_nm` (N m): `t / k_θ` (rad).
     pub fn rot_deflection_rad(&self, t_nm: Real) -> Real {
-        t_nm / self.rot_stiffness_nm_per_rad
+        t_nm / self.angular_stiffness_nm_per_rad
     }
 
     /// Bound on the position tracking error with zero feedback, for a target whose acceleration
@@ -138,7 +144,7 @@ impl HandParams {
     /// rotations about a fixed axis and to first order otherwise.
     pub fn rot_tracking_error_bound_rad(&self, max_accel_rad_s2: Real) -> Real {
         l1_gain(self.rot_damping_ratio()) * self.inertia_kg_m2 * max_accel_rad_s2
-            / self.rot_stiffness_nm_per_rad
+            / self.angular_stiffness_nm_per_rad
     }
 }
 
@@ -265,20 +271,20 @@ impl HandDevice {
         }
         // Translation: implicit in the damping, then x with the new v.
         let drive = p.stiffness_n_per_m * (target.position - s.x)
-            + p.damping_n_s_per_m * target_twist.linear
+            + p.damping_ns_per_m * target_twist.linear
             + self.command.force;
-        s.v = (s.v + drive * (dt_s / p.mass_kg)) / (1.0 + dt_s * p.damping_n_s_per_m / p.mass_kg);
+        s.v = (s.v + drive * (dt_s / p.mass_kg)) / (1.0 + dt_s * p.damping_ns_per_m / p.mass_kg);
         s.x += s.v * dt_s;
         let (mut x, mut v) = (s.x, s.v);
         self.clamp_to_workspace(&mut x, &mut v);
         (s.x, s.v) = (x, v);
         // Rotation, the same way, with the world-frame rotation vector as the error.
         let err = (target.orientation * s.q.inverse()).scaled_axis();
-        let drive = p.rot_stiffness_nm_per_rad * err
-            + p.rot_damping_nm_s_per_rad * target_twist.angular
+        let drive = p.angular_stiffness_nm_per_rad * err
+            + p.angular_damping_nms_per_rad * target_twist.angular
             + self.command.torque;
         s.w = (s.w + drive * (dt_s / p.inertia_kg_m2))
-            / (1.0 + dt_s * p.rot_damping_nm_s_per_rad / p.inertia_kg_m2);
+            / (1.0 + dt_s * p.angular_damping_nms_per_rad / p.inertia_kg_m2);
         s.q = UnitQuaternion::from_scaled_axis(s.w * dt_s) * s.q;
         s.q.renormalize();
         s.t_s = t1_s;
@@ -435,7 +441,7 @@ mod tests {
                 ..HandParams::default()
             },
             HandParams {
-                rot_damping_nm_s_per_rad: Real::NAN,
+                angular_damping_nms_per_rad: Real::NAN,
                 ..HandParams::default()
             },
             HandParams {
@@ -525,7 +531,7 @@ mod tests {
             deflection.norm() * 1e3,
             expected.norm() * 1e3,
             s.pose.orientation.angle(),
-            t.norm() / p.rot_stiffness_nm_per_rad
+            t.norm() / p.angular_stiffness_nm_per_rad
         );
         assert!((deflection - expected).norm() <= 1e-9 * expected.norm());
         assert_relative_eq!(
@@ -534,7 +540,7 @@ mod tests {
             max_relative = 1e-9
         );
         let rot = s.pose.orientation.scaled_axis();
-        let expected_rot = t / p.rot_stiffness_nm_per_rad;
+        let expected_rot = t / p.angular_stiffness_nm_per_rad;
         assert!((rot - expected_rot).norm() <= 1e-9 * expected_rot.norm());
         assert_relative_eq!(
             rot.norm(),

@@ -37,8 +37,11 @@ impl<D: Device> ScaledDevice<D> {
     pub fn new(inner: D, workspace_scale: Real, force_scale: Real) -> Result<Self, DeviceError> {
         Ok(Self {
             inner,
-            workspace_scale: haptic_core::check::positive("workspace_scale", workspace_scale)?,
-            force_scale: haptic_core::check::positive("force_scale", force_scale)?,
+            workspace_scale: haptic_core::check::positive(
+                "scaled.workspace_scale",
+                workspace_scale,
+            )?,
+            force_scale: haptic_core::check::positive("scaled.force_scale", force_scale)?,
             torque_scale: force_scale,
             origin_m: Vec3::zeros(),
         })
@@ -49,20 +52,16 @@ impl<D: Device> ScaledDevice<D> {
     /// # Errors
     /// [`DeviceError::Parameter`] unless it is finite and positive.
     pub fn with_torque_scale(mut self, torque_scale: Real) -> Result<Self, DeviceError> {
-        self.torque_scale = haptic_core::check::positive("torque_scale", torque_scale)?;
+        self.torque_scale = haptic_core::check::positive("scaled.torque_scale", torque_scale)?;
         Ok(self)
     }
 
     /// Scales positions about `origin_m` (device frame, m) instead of the device's origin.
     ///
     /// # Errors
-    /// [`DeviceError::NonFinite`] for a NaN or infinite origin.
+    /// [`DeviceError::Parameter`] for a NaN or infinite origin.
     pub fn with_origin(mut self, origin_m: Vec3) -> Result<Self, DeviceError> {
-        if !origin_m.iter().all(|v| v.is_finite()) {
-            return Err(DeviceError::NonFinite {
-                what: "scaling origin",
-            });
-        }
+        haptic_core::check::all_finite("scaled.origin_m", origin_m.iter().copied())?;
         self.origin_m = origin_m;
         Ok(self)
     }

@@ -198,27 +198,24 @@ impl SpaceMouseConfig {
     }
 
     fn validate(&self) -> Result<DeviceLimits, DeviceError> {
-        haptic_core::check::positive("full_scale_counts", self.full_scale_counts)?;
-        haptic_core::check::positive("max_offset_m", self.max_offset_m)?;
-        haptic_core::check::positive("max_angle_rad", self.max_angle_rad)?;
-        haptic_core::check::positive("max_speed_m_s", self.max_speed_m_s)?;
-        haptic_core::check::positive("max_rate_rad_s", self.max_rate_rad_s)?;
-        if !(0.0..1.0).contains(&self.deadband) {
-            return Err(DeviceError::Parameter(haptic_core::CoreError::OutOfRange {
-                what: "deadband",
-                value: self.deadband,
-                expected: "in [0, 1)",
-            }));
-        }
-        if let Some(&s) = self.axis_signs.iter().find(|s| !s.is_finite()) {
-            return Err(DeviceError::Parameter(haptic_core::CoreError::OutOfRange {
-                what: "axis_signs",
-                value: s,
-                expected: "finite",
-            }));
-        }
+        haptic_core::check::positive("spacemouse.full_scale_counts", self.full_scale_counts)?;
+        haptic_core::check::positive("spacemouse.max_offset_m", self.max_offset_m)?;
+        haptic_core::check::positive("spacemouse.max_angle_rad", self.max_angle_rad)?;
+        haptic_core::check::positive("spacemouse.max_speed_m_s", self.max_speed_m_s)?;
+        haptic_core::check::positive("spacemouse.max_rate_rad_s", self.max_rate_rad_s)?;
+        haptic_core::check::in_half_open(
+            "spacemouse.deadband",
+            self.deadband,
+            0.0,
+            1.0,
+            "in [0, 1)",
+        )?;
+        haptic_core::check::all_finite("spacemouse.axis_signs", self.axis_signs.iter().copied())?;
         if !self.home.is_finite() {
-            return Err(DeviceError::NonFinite { what: "home pose" });
+            return Err(haptic_core::CoreError::NonFinite {
+                what: "spacemouse.home",
+            }
+            .into());
         }
         self.limits()
     }

@@ -23,7 +23,9 @@ fn scaling_rejects_bad_scales_and_origins() {
     }
     assert!(matches!(
         scaled().with_origin(Vec3::new(0.0, f64::NAN, 0.0)),
-        Err(DeviceError::NonFinite { .. })
+        Err(DeviceError::Parameter(haptic_core::CoreError::NonFinite {
+            what: "scaled.origin_m"
+        }))
     ));
     assert!(scaled().with_torque_scale(3.0).is_ok());
     assert!(scaled().with_origin(Vec3::new(0.1, 0.0, 0.0)).is_ok());

@@ -35,13 +35,8 @@ impl Gravity {
     /// # Errors
     /// [`DynamicsError::Core`] ([`haptic_core::CoreError::NonFinite`]) for NaN or Inf.
     pub fn new(g_m_s2: Vec3) -> Result<Self, DynamicsError> {
-        if g_m_s2.iter().all(|v| v.is_finite()) {
-            Ok(Self { g_m_s2 })
-        } else {
-            Err(DynamicsError::Core(haptic_core::CoreError::NonFinite {
-                what: "gravity",
-            }))
-        }
+        haptic_core::check::all_finite("gravity", g_m_s2.iter().copied())?;
+        Ok(Self { g_m_s2 })
     }
 }
 

@@ -76,14 +76,14 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
          clusters, deepest {:.3} mm, largest force {:.2} N, {} zero-force steps",
         summary.duration_s,
         summary.contact_updates,
-        summary.raw_contacts_max,
-        summary.clusters_max,
+        summary.raw_contact_count_max,
+        summary.cluster_count_max,
         summary.max_penetration_m * 1e3,
         summary.max_force_n,
         summary.zero_force_steps
     );
     assert!(
-        summary.clusters_max > 0,
+        summary.cluster_count_max > 0,
         "the spoon should have touched the cup"
     );
     Ok(())

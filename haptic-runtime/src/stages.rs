@@ -211,9 +211,11 @@ pub struct HapticStats {
     /// Largest `| |q| - 1 |` of the tool state seen.
     pub max_quat_norm_error: Real,
     /// Passivity observer: energy that has flowed from the device port into the simulation,
-    /// translational and rotational (J). Negative means the simulation has generated energy.
+    /// translational and rotational (J), counted with the wrench actually sent (after
+    /// saturation and any controller damping). Negative means the simulation has generated
+    /// energy.
     pub port_energy_j: [Real; 2],
-    /// Lowest value `port_energy_j[0] + port_energy_j[1]` reached before any correction (J).
+    /// Lowest value `port_energy_j[0] + port_energy_j[1]` reached (J).
     pub min_port_energy_j: Real,
     /// Steps in which the passivity controller added damping.
     pub passivity_corrections: u64,
@@ -429,17 +431,21 @@ impl<I: Integrator, D: Device> HapticStage<I, D> {
             self.stats.divergences += 1;
             self.tool = self.forces.coupling.tool_at_handle();
         }
-        // 5. The coupling force with the new state, through the passivity observer (and
-        //    controller, if on), saturated to the device.
-        let mut reaction = self.forces.coupling.device_reaction(&self.body, &self.tool);
-        self.passivity(&mut reaction, &reading, dt_s);
-        let (wrench, clamped) = self.limits.saturate(&reaction);
+        // 5. The coupling force with the new state, saturated to the device, damped by the
+        //    passivity controller (if on) and saturated again; the observer counts what is sent.
+        let reaction = self.forces.coupling.device_reaction(&self.body, &self.tool);
+        let (mut wrench, clamped) = self.limits.saturate(&reaction);
         if clamped {
             self.stats.saturation_events += 1;
+        }
+        if self.safety.passivity_controller {
+            self.passivity_control(&mut wrench, &reading, dt_s);
+            wrench = self.limits.saturate(&wrench).0;
         }
         if !wrench.is_finite() {
             return self.zero_force_step(true);
         }
+        self.passivity_observe(&wrench, &reading, dt_s);
         // 6. Send it.
         self.device.command(&wrench).map_err(|e| DeviceFailure {
             kind: e.kind(),
@@ -450,28 +456,39 @@ impl<I: Integrator, D: Device> HapticStage<I, D> {
         Ok(StepOutcome::Stepped)
     }
 
-    /// Passivity observer and controller (Hannaford & Ryu 2002), one per port (translation,
-    /// rotation): `E ← E − (F·v) Δt` is the energy that has entered the simulation through the
-    /// port. When `E < 0` and the controller is on, `F ← F − α v` with `α = −E / (|v|² Δt)`
-    /// dissipates the deficit, bringing `E` back to 0.
-    fn passivity(&mut self, w: &mut Wrench, reading: &DeviceState, dt_s: Real) {
+    /// Passivity controller (Hannaford & Ryu 2002), one per port (translation, rotation): where
+    /// sending `F` would leave the port's energy `E − (F·v) Δt` negative, `F ← F − α v` with
+    /// `α = −(E − (F·v) Δt) / (|v|² Δt)` dissipates the deficit, bringing it back to 0.
+    fn passivity_control(&mut self, w: &mut Wrench, reading: &DeviceState, dt_s: Real) {
         let stats = &mut self.stats;
         let ports = [
             (&mut w.force, reading.twist.linear),
             (&mut w.torque, reading.twist.angular),
         ];
         for (k, (f, v)) in ports.into_iter().enumerate() {
-            let p = f.dot(&v);
-            if !p.is_finite() {
-                continue;
-            }
-            stats.port_energy_j[k] -= p * dt_s;
+            let predicted = stats.port_energy_j[k] - f.dot(&v) * dt_s;
             let v2 = v.norm_squared();
-            if self.safety.passivity_controller && stats.port_energy_j[k] < 0.0 && v2 > 1e-12 {
-                let alpha = -stats.port_energy_j[k] / (v2 * dt_s);
-                *f -= v * alpha;
-                stats.port_energy_j[k] = 0.0;
+            if predicted.is_finite() && predicted < 0.0 && v2 > 1e-12 {
+                *f -= v * (-predicted / (v2 * dt_s));
                 stats.passivity_corrections += 1;
+            }
+        }
+    }
+
+    /// Passivity observer (Hannaford & Ryu 2002), one per port: `E ← E − (F·v) Δt` with the
+    /// wrench actually sent, the energy that has entered the simulation through the port.
+    fn passivity_observe(&mut self, w: &Wrench, reading: &DeviceState, dt_s: Real) {
+        let stats = &mut self.stats;
+        for (k, (f, v)) in [
+            (w.force, reading.twist.linear),
+            (w.torque, reading.twist.angular),
+        ]
+        .into_iter()
+        .enumerate()
+        {
+            let p = f.dot(&v);
+            if p.is_finite() {
+                stats.port_energy_j[k] -= p * dt_s;
             }
         }
         let total = stats.port_energy_j[0] + stats.port_energy_j[1];

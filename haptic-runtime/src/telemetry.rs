@@ -233,9 +233,9 @@ pub struct Summary {
     /// Collision queries the broad phase settled (nothing near the tool).
     pub broad_phase_only_queries: u64,
     /// Most raw contacts in one update.
-    pub raw_contacts_max: u64,
+    pub raw_contact_count_max: u64,
     /// Most clusters in one update.
-    pub clusters_max: u64,
+    pub cluster_count_max: u64,
     /// Deepest raw penetration seen (m); 0 without contact.
     pub max_penetration_m: Real,
     /// Largest distance between device handle and grasp point (m).

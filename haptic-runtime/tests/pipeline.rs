@@ -54,8 +54,11 @@ fn spoon_pressed_into_cup_is_held_without_deep_penetration() {
         speed_m_per_s < 0.03,
         "the spoon still moves at {speed_m_per_s} m/s"
     );
-    assert!(s.raw_contacts_max > 0, "the spoon never touched the cup");
-    assert!(s.clusters_max <= 5);
+    assert!(
+        s.raw_contact_count_max > 0,
+        "the spoon never touched the cup"
+    );
+    assert!(s.cluster_count_max <= 5);
     assert!(
         s.max_penetration_m < 0.6e-3,
         "penetration {} mm",
@@ -73,8 +76,8 @@ fn identical_virtual_runs_give_identical_outputs() {
     assert_eq!(ya, yb, "final states differ");
     assert_eq!(a.max_force_n.to_bits(), b.max_force_n.to_bits());
     assert_eq!(a.max_penetration_m.to_bits(), b.max_penetration_m.to_bits());
-    assert_eq!(a.raw_contacts_max, b.raw_contacts_max);
-    assert_eq!(a.clusters_max, b.clusters_max);
+    assert_eq!(a.raw_contact_count_max, b.raw_contact_count_max);
+    assert_eq!(a.cluster_count_max, b.cluster_count_max);
     assert_eq!(a.contact_updates, b.contact_updates);
 }
 
@@ -107,7 +110,7 @@ fn box_pressed_on_floor_in_virtual_time_is_supported() {
         .run_virtual(1.0, ContactLatency::FixedRate { rate_hz: 500.0 }, |_, _| {})
         .unwrap();
     assert_eq!(s.zero_force_steps, 0);
-    assert_eq!(s.clusters_max, 4, "four bottom corners in contact");
+    assert_eq!(s.cluster_count_max, 4, "four bottom corners in contact");
     assert!(s.max_penetration_m < 0.6e-3, "{}", s.max_penetration_m);
     let z = p.haptic().tool().x.z;
     assert!((z - HALF_M).abs() < 1e-3, "box centre at {z}");

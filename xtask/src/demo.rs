@@ -230,8 +230,8 @@ fn print_summary(s: &Summary) {
     );
     println!(
         "contacts      {} raw at most, {} clusters at most; max penetration {:.3} mm",
-        s.raw_contacts_max,
-        s.clusters_max,
+        s.raw_contact_count_max,
+        s.cluster_count_max,
         s.max_penetration_m * 1e3
     );
     println!(

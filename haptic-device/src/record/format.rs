@@ -60,9 +60,9 @@ impl RecordingHeader {
     }
 
     pub(super) fn validate(&self) -> Result<(), DeviceError> {
-        haptic_core::check::positive("rate_hz", self.rate_hz)?;
-        haptic_core::check::positive("workspace_scale", self.workspace_scale)?;
-        haptic_core::check::positive("force_scale", self.force_scale)?;
+        haptic_core::check::positive("recording.rate_hz", self.rate_hz)?;
+        haptic_core::check::positive("recording.workspace_scale", self.workspace_scale)?;
+        haptic_core::check::positive("recording.force_scale", self.force_scale)?;
         Ok(())
     }
 

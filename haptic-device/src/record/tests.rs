@@ -364,7 +364,7 @@ fn bad_recorder_headers_and_failing_inner_devices() {
     assert!(matches!(
         Recorder::with_header(hand(), Vec::new(), bad),
         Err(DeviceError::Parameter(haptic_core::CoreError::OutOfRange {
-            what: "workspace_scale",
+            what: "recording.workspace_scale",
             ..
         }))
     ));

@@ -29,7 +29,7 @@ struct ContactStats {
     latency: DurationHistogram,
     broad_phase_only: u64,
     raw_max: u64,
-    clusters_max: u64,
+    cluster_count_max: u64,
     max_penetration_m: Real,
     errors: u64,
     first_error: Option<String>,
@@ -46,7 +46,7 @@ impl ContactStats {
             self.broad_phase_only += 1;
         }
         self.raw_max = self.raw_max.max(u.raw_contact_count as u64);
-        self.clusters_max = self.clusters_max.max(u.cluster_count as u64);
+        self.cluster_count_max = self.cluster_count_max.max(u.cluster_count as u64);
         self.max_penetration_m = self.max_penetration_m.max(u.max_penetration_m);
         self.first_update_s.get_or_insert(available_s);
         self.last_update_s = available_s;
@@ -156,8 +156,8 @@ impl<I: Integrator, B: CollisionBackend, C: ContactModel, D: Device> Pipeline<I,
             contact_latency_p50_s: c.latency.quantile_s(0.5),
             contact_latency_max_s: c.latency.max_s(),
             broad_phase_only_queries: c.broad_phase_only,
-            raw_contacts_max: c.raw_max,
-            clusters_max: c.clusters_max,
+            raw_contact_count_max: c.raw_max,
+            cluster_count_max: c.cluster_count_max,
             max_penetration_m: c.max_penetration_m,
             max_coupling_deviation_m: h.max_coupling_deviation_m,
             max_force_n: h.max_force_n,

@@ -376,7 +376,8 @@ struct PerfSetup {
     timer: &'static str,
 }
 
-/// `perf.json` (its fields are the contract of `../shared/acceptance/09-work-precision`).
+/// `perf.json`. Its field names are a contract: scripts read them (`docs/performance.md` lists
+/// them); rename none.
 #[derive(Serialize)]
 struct PerfReport {
     haptic_step: BTreeMap<&'static str, BTreeMap<&'static str, StepTimes>>,

@@ -156,8 +156,8 @@ pub fn run(args: &crate::OutArgs) -> anyhow::Result<()> {
             ),
             max_coupling_force_n: r.summary.max_force_n,
             max_coupling_deviation_m: r.summary.max_coupling_deviation_m,
-            raw_contacts_max: r.summary.raw_contacts_max,
-            clusters_max: r.summary.clusters_max,
+            raw_contact_count_max: r.summary.raw_contact_count_max,
+            cluster_count_max: r.summary.cluster_count_max,
             zero_force_steps: r.summary.zero_force_steps,
         };
         println!(
@@ -255,8 +255,12 @@ struct CupRow {
     rms_coupling_force_contact_n: Real,
     max_coupling_force_n: Real,
     max_coupling_deviation_m: Real,
-    raw_contacts_max: u64,
-    clusters_max: u64,
+    /// JSON `raw_contacts_max` (the name the studies' readers use).
+    #[serde(rename = "raw_contacts_max")]
+    raw_contact_count_max: u64,
+    /// JSON `clusters_max`.
+    #[serde(rename = "clusters_max")]
+    cluster_count_max: u64,
     zero_force_steps: u64,
 }
 

@@ -141,8 +141,8 @@ fn run_one(
         max_penetration_m: s.max_penetration_m,
         contact_rate_hz_min: rate(s.contact_latency_max_s),
         contact_rate_hz_median: rate(s.contact_latency_p50_s),
-        raw_contacts_max: s.raw_contacts_max,
-        clusters_max: s.clusters_max,
+        raw_contact_count_max: s.raw_contact_count_max,
+        cluster_count_max: s.cluster_count_max,
         max_coupling_force_n: s.max_force_n,
         max_coupling_deviation_m: s.max_coupling_deviation_m,
         contact_updates: s.contact_updates,
@@ -161,8 +161,8 @@ fn run_one(
         s.max_penetration_m * 1e3,
         rate(s.contact_latency_p50_s),
         rate(s.contact_latency_max_s),
-        s.raw_contacts_max,
-        s.clusters_max,
+        s.raw_contact_count_max,
+        s.cluster_count_max,
         s.max_force_n
     );
     Ok((row, r.series, r.stable))
@@ -288,8 +288,12 @@ pub(crate) struct JawsRow {
     max_penetration_m: Real,
     contact_rate_hz_min: Real,
     contact_rate_hz_median: Real,
-    raw_contacts_max: u64,
-    clusters_max: u64,
+    /// JSON `raw_contacts_max` (the name the studies' readers use).
+    #[serde(rename = "raw_contacts_max")]
+    raw_contact_count_max: u64,
+    /// JSON `clusters_max`.
+    #[serde(rename = "clusters_max")]
+    cluster_count_max: u64,
     max_coupling_force_n: Real,
     max_coupling_deviation_m: Real,
     contact_updates: u64,

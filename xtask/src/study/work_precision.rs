@@ -1,6 +1,6 @@
-//! `cargo xtask work-precision [--out DIR] [--quick]`: error against cost of each integrator.
+//! `cargo xtask study work-precision [--out DIR] [--quick]`: error against cost of each integrator.
 //!
-//! **Scenario** (the free-space study's, see `study/free_space.rs`): the 20 cm Newell teaspoon,
+//! **Scenario** (the free-space study's, see `study/free_space/`): the 20 cm Newell teaspoon,
 //! 100 g (inertia scaled from its uniform-density mass properties), hangs on the default virtual
 //! coupling and follows the analytic hand motion of the free-space study for 2.5 s.
 //!
