@@ -12,6 +12,8 @@ pub struct Series {
     pub points: Vec<(f64, f64)>,
     /// A label per point (drawn beside it, marked with a dot), or none.
     pub point_labels: Vec<String>,
+    /// Whether the points are joined by a line (a curve) or drawn alone (a scatter).
+    pub joined: bool,
 }
 
 impl Series {
@@ -21,6 +23,15 @@ impl Series {
             name: name.into(),
             points,
             point_labels: Vec::new(),
+            joined: true,
+        }
+    }
+
+    /// A scatter: points drawn alone, for points that are not a curve (one per configuration).
+    pub fn scatter(name: impl Into<String>, points: Vec<(f64, f64)>) -> Self {
+        Self {
+            joined: false,
+            ..Self::new(name, points)
         }
     }
 
@@ -195,12 +206,19 @@ pub fn line_chart(path: &Path, chart: &Chart<'_>, series: &[Series]) -> anyhow::
                     .copied()
                     .filter(|p| keep(chart.x_scale, p.0) && keep(chart.y_scale, p.1))
                     .collect();
-                ctx.draw_series(LineSeries::new(pts.clone(), color.stroke_width(2)))
-                    .map_err(|e| anyhow::anyhow!("{e}"))?
-                    .label(s.name.clone())
-                    .legend(move |(x, y)| {
-                        PathElement::new(vec![(x, y), (x + 20, y)], color.stroke_width(2))
-                    });
+                if s.joined {
+                    ctx.draw_series(LineSeries::new(pts.clone(), color.stroke_width(2)))
+                        .map_err(|e| anyhow::anyhow!("{e}"))?
+                        .label(s.name.clone())
+                        .legend(move |(x, y)| {
+                            PathElement::new(vec![(x, y), (x + 20, y)], color.stroke_width(2))
+                        });
+                } else {
+                    ctx.draw_series(pts.iter().map(|p| Circle::new(*p, 4, color.filled())))
+                        .map_err(|e| anyhow::anyhow!("{e}"))?
+                        .label(s.name.clone())
+                        .legend(move |(x, y)| Circle::new((x + 10, y), 4, color.filled()));
+                }
                 if !s.point_labels.is_empty() {
                     let labelled = s
                         .points

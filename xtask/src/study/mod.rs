@@ -1,5 +1,6 @@
 //! `cargo xtask study …`: the paper's experiments.
 
+mod compare;
 mod contact_run;
 mod cup;
 pub(crate) mod free_space;
@@ -21,6 +22,9 @@ pub enum Study {
     Jaws(OutArgs),
     /// Integrators' error against run time (work-precision diagrams).
     WorkPrecision(OutArgs),
+    /// Every combination of a study file's axes on your own scene, ranked by run time within an
+    /// error budget (`--study FILE`; examples in `xtask/studies/`).
+    Compare(compare::CompareArgs),
     /// Every study, and a report.
     All(OutArgs),
 }
@@ -32,6 +36,7 @@ pub fn run(which: Study) -> anyhow::Result<()> {
         Study::Cup(a) => cup::run(&a),
         Study::Jaws(a) => jaws::run(&a),
         Study::WorkPrecision(a) => work_precision::run(&a),
+        Study::Compare(a) => compare::run(&a),
         Study::All(a) => {
             free_space::run(&free_space::FreeSpaceArgs {
                 out: a.clone(),
