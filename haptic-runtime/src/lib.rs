@@ -61,6 +61,7 @@
 
 pub mod error;
 pub mod pipeline;
+pub mod recording;
 #[cfg(feature = "scene")]
 pub mod scene;
 pub mod stages;
@@ -68,6 +69,7 @@ pub mod telemetry;
 
 pub use error::RuntimeError;
 pub use pipeline::{ContactLatency, Pipeline, PipelineBuilder, PipelineConfig, REALTIME_PRIORITY};
+pub use recording::{RunObserver, RunRecorder, RunRecording};
 #[cfg(feature = "scene")]
 pub use scene::{Scene, SceneError, SceneParts};
 pub use stages::{

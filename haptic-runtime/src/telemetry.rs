@@ -4,7 +4,7 @@
 use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
 
 use haptic_core::Real;
-use serde::Serialize;
+use serde::{Deserialize, Serialize};
 
 /// Lower edge of the first histogram bin (s).
 const HIST_MIN_S: Real = 1e-8;
@@ -180,7 +180,7 @@ impl LiveTelemetry {
 }
 
 /// How a run was clocked.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Default)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize, Default)]
 #[serde(rename_all = "kebab-case")]
 pub enum RunMode {
     /// Haptic and contact threads on the wall clock ([`crate::Pipeline::run_realtime`]);
@@ -202,7 +202,7 @@ impl std::fmt::Display for RunMode {
 }
 
 /// The end-of-run summary. Serialized as the demo's `--json` output.
-#[derive(Debug, Clone, PartialEq, Serialize, Default)]
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, Default)]
 pub struct Summary {
     /// How the run was clocked.
     pub mode: RunMode,

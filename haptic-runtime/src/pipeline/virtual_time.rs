@@ -6,6 +6,7 @@ use std::time::Instant;
 use haptic_core::{CollisionBackend, ContactModel, Device, Integrator, Real};
 
 use crate::error::RuntimeError;
+use crate::recording::RunObserver;
 use crate::stages::{ContactStage, ContactUpdate, DeviceFailure, HapticStage, panic_message};
 use crate::telemetry::{RunMode, Summary};
 
@@ -28,7 +29,21 @@ impl<I: Integrator, B: CollisionBackend, C: ContactModel, D: Device> Pipeline<I,
         &mut self,
         duration_s: Real,
         latency: ContactLatency,
-        mut observe: impl FnMut(Real, &HapticStage<I, D>),
+        observe: impl FnMut(Real, &HapticStage<I, D>),
+    ) -> Result<Summary, RuntimeError> {
+        self.run_virtual_observed(duration_s, latency, &mut StepObserver(observe))
+    }
+
+    /// [`Pipeline::run_virtual`] with an observer that also sees every contact query (the raw
+    /// contacts and the representatives), as a [`crate::RunRecorder`] records them.
+    ///
+    /// # Errors
+    /// As [`Pipeline::run_virtual`].
+    pub fn run_virtual_observed(
+        &mut self,
+        duration_s: Real,
+        latency: ContactLatency,
+        observer: &mut impl RunObserver<I, D>,
     ) -> Result<Summary, RuntimeError> {
         let dt = 1.0 / self.config.haptic_rate_hz;
         let steps = (duration_s / dt).round().max(0.0) as u64;
@@ -43,7 +58,7 @@ impl<I: Integrator, B: CollisionBackend, C: ContactModel, D: Device> Pipeline<I,
                 dt,
                 latency,
                 &mut stats,
-                &mut observe,
+                observer,
             )
         }))
         .map_err(|payload| panic_message(&*payload));
@@ -65,7 +80,7 @@ fn virtual_loop<I, B, C, D>(
     dt: Real,
     latency: ContactLatency,
     stats: &mut ContactStats,
-    observe: &mut impl FnMut(Real, &HapticStage<I, D>),
+    observe: &mut impl RunObserver<I, D>,
 ) -> Option<DeviceFailure>
 where
     I: Integrator,
@@ -95,7 +110,17 @@ where
                 ContactLatency::Measured { scale, min_s } => (cost_s * scale).max(min_s),
             };
             match result {
-                Ok(Ok(update)) => pending = Some((t, t + delay, update)),
+                Ok(Ok(update)) => {
+                    observe.contact_update(
+                        t,
+                        t + delay,
+                        &update,
+                        contact.raw_contacts(),
+                        contact.representatives(),
+                        cost_s,
+                    );
+                    pending = Some((t, t + delay, update));
+                }
                 Ok(Err(e)) => {
                     stats.errors += 1;
                     stats.first_error.get_or_insert_with(|| e.to_string());
@@ -113,7 +138,27 @@ where
         if let Err(f) = outcome {
             return Some(f);
         }
-        observe(t + dt, haptic);
+        observe.haptic_step(t + dt, haptic);
     }
     None
+}
+
+/// A closure over haptic steps, as an observer that ignores contact queries.
+struct StepObserver<F>(F);
+
+impl<I, D, F: FnMut(Real, &HapticStage<I, D>)> RunObserver<I, D> for StepObserver<F> {
+    fn haptic_step(&mut self, t_s: Real, haptic: &HapticStage<I, D>) {
+        (self.0)(t_s, haptic);
+    }
+
+    fn contact_update(
+        &mut self,
+        _: Real,
+        _: Real,
+        _: &ContactUpdate,
+        _: &haptic_core::ContactSet,
+        _: &haptic_core::ContactSet,
+        _: Real,
+    ) {
+    }
 }
