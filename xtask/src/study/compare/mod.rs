@@ -14,8 +14,15 @@
 //! the coupling stretches less than 10 cm and the tool sinks less than 5 mm; otherwise the rule
 //! that failed is reported.
 //!
+//! **Run time**: after the parallel pass, every configuration runs again alone (best of two;
+//! one with `--quick`), so that the times do not share the cores; the contact stage's time is
+//! the sum of its queries' costs, the haptic stage's the sum of its steps'.
+//!
 //! **Ranking**: stable configurations within the error budget first, fastest first (total
-//! seconds per simulated second); then the other stable ones by error; then the unstable ones.
+//! seconds per simulated second; times within 10 % are a tie, decided by the error); then the
+//! other stable ones by error; then the unstable ones. parry has no error threshold: it runs once
+//! per combination of the other axes. A reference that is not stable, or that sends no force,
+//! stops the study with an error.
 //!
 //! Output: `DIR/compare.json`, `DIR/compare.md`, `DIR/compare-work-precision.svg` (run time
 //! against error, one labelled point per stable configuration) and `DIR/compare-force.svg` (force
@@ -60,7 +67,8 @@ struct Row {
     rank: usize,
     integrator: &'static str,
     backend: Backend,
-    error_threshold: Real,
+    /// The LOD back-end's error threshold; none for parry.
+    error_threshold: Option<Real>,
     mass_kg: Real,
     coupling_stiffness_n_per_m: Real,
     contact_stiffness_n_per_m: Real,
@@ -73,7 +81,7 @@ struct Row {
     error: Option<String>,
     max_penetration_m: Real,
     rms_force_n: Real,
-    force_error_rel: Real,
+    force_error_rel: Option<Real>,
     within_error_budget: bool,
     contact_rate_hz: Real,
     seconds_per_simulated_second: Real,
@@ -97,12 +105,14 @@ struct Report {
 }
 
 /// The first stability rule a run breaks, if any.
-fn failed_rule(m: &Measured) -> Option<&'static str> {
+fn failed_rule(m: &Measured, contact_hz: Real) -> Option<&'static str> {
     let s = match &m.summary {
         Err(_) => return Some("run_error"),
         Ok(s) => s,
     };
-    if s.solver_failures > 0 {
+    if s.contact_rate_hz < 0.5 * contact_hz {
+        Some("contact_rate_not_reached")
+    } else if s.solver_failures > 0 {
         Some("step_failed")
     } else if m.resets > 0 {
         Some("tool_reset")
@@ -119,9 +129,16 @@ fn failed_rule(m: &Measured) -> Option<&'static str> {
 
 /// The physical setting of a configuration, the key of its reference.
 fn physics_key(c: &Config) -> String {
+    let v = |x: Option<Real>, unit: &str| {
+        x.map_or("the scene's".to_owned(), |x| {
+            format!("{} {unit}", tick_label(x))
+        })
+    };
     format!(
-        "{:?}/{:?}/{:?}",
-        c.mass_kg, c.coupling_stiffness_n_per_m, c.contact_stiffness_n_per_m
+        "tool mass {}, coupling stiffness {}, contact stiffness {}",
+        v(c.mass_kg, "kg"),
+        v(c.coupling_stiffness_n_per_m, "N/m"),
+        v(c.contact_stiffness_n_per_m, "N/m")
     )
 }
 
@@ -180,20 +197,49 @@ pub fn run(args: &CompareArgs) -> anyhow::Result<()> {
     bar.finish_and_clear();
     let mut measured = measured.into_iter();
     let mut reference_forces: BTreeMap<String, Vec<haptic_core::Vec3>> = BTreeMap::new();
-    for key in references.keys() {
+    for (key, c) in &references {
         let m = measured.next().expect("one result per job")?;
-        if let Err(e) = &m.summary {
-            anyhow::bail!("the reference run {key} failed: {e}");
+        let (_, contact_hz) = configure(&base, c)?;
+        if let Some(rule) = failed_rule(&m, contact_hz) {
+            let detail = m.summary.as_ref().err().cloned().unwrap_or_default();
+            anyhow::bail!(
+                "the reference ({key}) is not stable ({rule}{}{detail}): no error can be measured against it",
+                if detail.is_empty() { "" } else { ": " }
+            );
+        }
+        if rms(&m.forces) < run::MIN_REFERENCE_RMS_N {
+            anyhow::bail!(
+                "the reference ({key}) sends no force (RMS below {} N): there is nothing to compare with. A recording from an input-only device carries zero force limits.",
+                run::MIN_REFERENCE_RMS_N
+            );
         }
         reference_forces.insert(key.clone(), m.forces);
     }
+    let results: Vec<Measured> = measured.collect::<anyhow::Result<_>>()?;
+    // Timing: the parallel pass shares the cores; time every configuration again, one at a time,
+    // and keep the best of `repeats` runs.
+    let repeats = if args.out.quick { 1 } else { 2 };
+    println!("timing each configuration alone ({repeats} run(s) each)");
+    let bar = indicatif::ProgressBar::new(configs.len() as u64);
+    let mut timings = Vec::with_capacity(configs.len());
+    for c in &configs {
+        let mut best: Option<(Real, Real, Real)> = None;
+        for _ in 0..repeats {
+            let m = run::run(&study, &base, &lod, c, duration_s)?;
+            if best.is_none_or(|b| m.wall_s < b.0) {
+                best = Some((m.wall_s, m.haptic_s, m.contact_s));
+            }
+        }
+        timings.push(best.expect("at least one run"));
+        bar.inc(1);
+    }
+    bar.finish_and_clear();
 
     let mut rows = Vec::new();
     let mut forces_by_row = Vec::new();
-    for (c, m) in configs.iter().zip(measured) {
-        let m = m?;
+    for ((c, m), (wall_s, haptic_s, contact_s)) in configs.iter().zip(results).zip(timings) {
         let (p, contact_hz) = configure(&base, c)?;
-        let rule = failed_rule(&m);
+        let rule = failed_rule(&m, contact_hz);
         let reference = &reference_forces[&physics_key(c)];
         let err = force_error_rel(&m.forces, reference);
         let (pen, rate, error) = match &m.summary {
@@ -204,7 +250,10 @@ pub fn run(args: &CompareArgs) -> anyhow::Result<()> {
             rank: 0,
             integrator: c.integrator.name(),
             backend: c.backend,
-            error_threshold: p.config.query.error_threshold,
+            error_threshold: match c.backend {
+                Backend::Lod => Some(p.config.query.error_threshold),
+                Backend::Parry => None,
+            },
             mass_kg: p.body.mass_kg(),
             coupling_stiffness_n_per_m: p.coupling.stiffness_n_per_m,
             contact_stiffness_n_per_m: p.penalty.stiffness_n_per_m,
@@ -216,11 +265,11 @@ pub fn run(args: &CompareArgs) -> anyhow::Result<()> {
             max_penetration_m: pen,
             rms_force_n: rms(&m.forces),
             force_error_rel: err,
-            within_error_budget: rule.is_none() && err <= study.error_budget,
+            within_error_budget: rule.is_none() && err.is_some_and(|e| e <= study.error_budget),
             contact_rate_hz: rate,
-            seconds_per_simulated_second: m.wall_s / duration_s,
-            haptic_seconds_per_simulated_second: m.haptic_s / duration_s,
-            contact_seconds_per_simulated_second: (m.wall_s - m.haptic_s).max(0.0) / duration_s,
+            seconds_per_simulated_second: wall_s / duration_s,
+            haptic_seconds_per_simulated_second: haptic_s / duration_s,
+            contact_seconds_per_simulated_second: contact_s / duration_s,
         });
         forces_by_row.push(m.forces);
     }
@@ -229,12 +278,17 @@ pub fn run(args: &CompareArgs) -> anyhow::Result<()> {
     order.sort_by(|&a, &b| {
         let (ra, rb) = (&rows[a], &rows[b]);
         let class = |r: &Row| u8::from(!r.within_error_budget) + u8::from(!r.stable);
+        let error = |r: &Row| r.force_error_rel.unwrap_or(Real::INFINITY);
         class(ra).cmp(&class(rb)).then_with(|| {
-            if ra.within_error_budget {
-                ra.seconds_per_simulated_second
-                    .total_cmp(&rb.seconds_per_simulated_second)
+            let (ta, tb) = (
+                ra.seconds_per_simulated_second,
+                rb.seconds_per_simulated_second,
+            );
+            // Times within 10 % of each other are a tie on this machine: the error decides.
+            if ra.within_error_budget && (ta - tb).abs() > 0.1 * ta.min(tb) {
+                ta.total_cmp(&tb)
             } else {
-                ra.force_error_rel.total_cmp(&rb.force_error_rel)
+                error(ra).total_cmp(&error(rb))
             }
         })
     });
@@ -278,7 +332,10 @@ fn label(r: &Row) -> String {
         "{} {} {} {}",
         r.integrator,
         match r.backend {
-            Backend::Lod => format!("lod {}%", tick_label(r.error_threshold * 100.0)),
+            Backend::Lod => format!(
+                "lod {}%",
+                tick_label(r.error_threshold.unwrap_or(0.0) * 100.0)
+            ),
             Backend::Parry => "parry".to_owned(),
         },
         format_args!("{} g", tick_label(r.mass_kg * 1e3)),
@@ -317,11 +374,12 @@ fn write_markdown(
         let r = &rows[i];
         writeln!(
             md,
-            "| {} | {} | {:?} | {} % | {} g | {} N/m | {} N/m | {} | {} | {} | {} | {} mm | {} ({} + {}) |",
+            "| {} | {} | {:?} | {} | {} g | {} N/m | {} N/m | {} | {} | {} | {} | {} mm | {} ({} + {}) |",
             r.rank,
             r.integrator,
             r.backend,
-            tick_label(r.error_threshold * 100.0),
+            r.error_threshold
+                .map_or("–".to_owned(), |t| format!("{} %", tick_label(t * 100.0))),
             tick_label(r.mass_kg * 1e3),
             tick_label(r.coupling_stiffness_n_per_m),
             tick_label(r.contact_stiffness_n_per_m),
@@ -329,7 +387,7 @@ fn write_markdown(
             tick_label(r.haptic_hz),
             r.failed_rule
                 .map_or("yes".to_owned(), |f| format!("no ({f})")),
-            tick_label(r.force_error_rel),
+            r.force_error_rel.map_or("–".to_owned(), tick_label),
             tick_label(r.max_penetration_m * 1e3),
             tick_label(r.seconds_per_simulated_second),
             tick_label(r.haptic_seconds_per_simulated_second),
@@ -348,7 +406,7 @@ fn write_markdown(
             "  #{:<3} {:<48} error {:>6}  {} s/s{}",
             r.rank,
             label(r),
-            tick_label(r.force_error_rel),
+            r.force_error_rel.map_or("–".to_owned(), tick_label),
             tick_label(r.seconds_per_simulated_second),
             if r.stable { "" } else { "  unstable" }
         );
@@ -366,15 +424,17 @@ fn plots(
 ) -> anyhow::Result<()> {
     let stable: Vec<&Row> = rows
         .iter()
-        .filter(|r| r.stable && r.force_error_rel > 0.0)
+        .filter(|r| r.stable && r.force_error_rel.is_some_and(|e| e > 0.0))
         .collect();
     let mut by_integrator: BTreeMap<&str, Series> = BTreeMap::new();
     for r in &stable {
         let s = by_integrator
             .entry(r.integrator)
             .or_insert_with(|| Series::scatter(r.integrator, Vec::new()));
-        s.points
-            .push((r.force_error_rel, r.seconds_per_simulated_second));
+        s.points.push((
+            r.force_error_rel.unwrap_or(Real::NAN),
+            r.seconds_per_simulated_second,
+        ));
         s.point_labels.push(format!("#{}", r.rank));
     }
     let series: Vec<Series> = by_integrator.into_values().collect();
@@ -391,17 +451,6 @@ fn plots(
     )?;
     let t = |i: usize| (i + 1) as Real / SAMPLE_HZ;
     let mut lines = Vec::new();
-    if let Some(&best) = order.first() {
-        let reference = &references[&physics_key(&configs[best])];
-        lines.push(Series::new(
-            "reference",
-            reference
-                .iter()
-                .enumerate()
-                .map(|(i, f)| (t(i), f.norm()))
-                .collect(),
-        ));
-    }
     for &i in order.iter().take(3) {
         lines.push(Series::new(
             format!("#{} {}", rows[i].rank, label(&rows[i])),
@@ -412,10 +461,28 @@ fn plots(
                 .collect(),
         ));
     }
+    // The references of the plotted configurations' physical settings, drawn last (on top).
+    let mut drawn: Vec<String> = Vec::new();
+    for &i in order.iter().take(3) {
+        let key = physics_key(&configs[i]);
+        if drawn.contains(&key) {
+            continue;
+        }
+        let reference = &references[&key];
+        lines.push(Series::new(
+            format!("reference, {} g", tick_label(rows[i].mass_kg * 1e3)),
+            reference
+                .iter()
+                .enumerate()
+                .map(|(k, f)| (t(k), f.norm()))
+                .collect(),
+        ));
+        drawn.push(key);
+    }
     line_chart(
         &dir.join("compare-force.svg"),
         &Chart {
-            title: "Force sent to the device: the reference and the three best configurations",
+            title: "Force sent to the device: the three best configurations and their references",
             x_label: "time (s)",
             y_label: "|F| (N)",
             x_scale: Scale::Linear,

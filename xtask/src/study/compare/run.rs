@@ -3,13 +3,16 @@
 use std::time::Instant;
 
 use haptic_collision::{LodBackend, ParryBackend};
-use haptic_core::{CollisionBackend, Device, Integrator, QueryParams, Real, Vec3};
+use haptic_core::{CollisionBackend, ContactSet, Device, Integrator, QueryParams, Real, Vec3};
 use haptic_device::{DeviceError, ReplayDevice};
 use haptic_dynamics::{
     CouplingParams, ForwardEuler, IntegratorKind, LinearizedBackwardEuler, NewtonBackwardEuler,
     PenaltyModel, PenaltyParams, Rk4,
 };
-use haptic_runtime::{ContactLatency, PipelineBuilder, RuntimeError, SceneParts, Summary};
+use haptic_runtime::{
+    ContactLatency, ContactUpdate, HapticStage, PipelineBuilder, RunObserver, RuntimeError,
+    SceneParts, Summary,
+};
 
 use super::spec::{Backend, Config, Study};
 
@@ -27,8 +30,37 @@ pub(crate) struct Measured {
     /// Wall time of the whole run and of the haptic steps alone (s).
     pub(crate) wall_s: Real,
     pub(crate) haptic_s: Real,
+    /// Wall time of the contact stage's queries, clustering and linearization (s).
+    pub(crate) contact_s: Real,
     /// Tool resets (the coupling stretched past the divergence bound).
     pub(crate) resets: u64,
+}
+
+/// Samples the force sent and adds up the contact stage's cost.
+struct Sampler {
+    forces: Vec<Vec3>,
+    contact_s: Real,
+}
+
+impl<I: Integrator, D: Device> RunObserver<I, D> for Sampler {
+    fn haptic_step(&mut self, t: Real, h: &HapticStage<I, D>) {
+        // The force sent at each 1 ms mark (the first step at or after it).
+        while (self.forces.len() + 1) as Real / SAMPLE_HZ <= t + 1e-9 {
+            self.forces.push(h.last_wrench().force);
+        }
+    }
+
+    fn contact_update(
+        &mut self,
+        _: Real,
+        _: Real,
+        _: &ContactUpdate,
+        _: &ContactSet,
+        _: &ContactSet,
+        query_time_s: Real,
+    ) {
+        self.contact_s += query_time_s;
+    }
 }
 
 /// The scene's parts with a configuration's values in place, the contact rate (Hz) and the
@@ -155,19 +187,17 @@ fn simulate<I: Integrator + Send, B: CollisionBackend + Send>(
         .coupling(parts.coupling)
         .config(parts.config)
         .build()?;
-    let mut forces = Vec::with_capacity((duration_s * SAMPLE_HZ) as usize + 1);
+    let mut sampler = Sampler {
+        forces: Vec::new(),
+        contact_s: 0.0,
+    };
     let clock = Instant::now();
-    let outcome = pipeline.run_virtual(
+    let outcome = pipeline.run_virtual_observed(
         duration_s,
         ContactLatency::FixedRate {
             rate_hz: contact_hz,
         },
-        |t, h| {
-            // The force sent at each 1 ms mark (the first step at or after it).
-            while (forces.len() + 1) as Real / SAMPLE_HZ <= t + 1e-9 {
-                forces.push(h.last_wrench().force);
-            }
-        },
+        &mut sampler,
     );
     let wall_s = clock.elapsed().as_secs_f64();
     let haptic = &pipeline.haptic().stats;
@@ -176,9 +206,10 @@ fn simulate<I: Integrator + Send, B: CollisionBackend + Send>(
     let summary = outcome.map_err(|e: RuntimeError| e.to_string());
     Ok(Measured {
         summary,
-        forces,
+        forces: sampler.forces,
         wall_s,
         haptic_s,
+        contact_s: sampler.contact_s,
         resets,
     })
 }
@@ -198,19 +229,23 @@ pub(crate) fn reference_of(c: &Config, finest_haptic_hz: Real, factor: Real) -> 
     }
 }
 
-/// `‖F − F_ref‖_rms / ‖F_ref‖_rms` over the samples both have.
-pub(crate) fn force_error_rel(forces: &[Vec3], reference: &[Vec3]) -> Real {
+/// `‖F − F_ref‖_rms / ‖F_ref‖_rms` over the samples both have; `None` when there are none or
+/// the reference sends (almost) no force.
+pub(crate) fn force_error_rel(forces: &[Vec3], reference: &[Vec3]) -> Option<Real> {
     let n = forces.len().min(reference.len());
-    if n == 0 {
-        return Real::NAN;
+    if n == 0 || rms(&reference[..n]) < MIN_REFERENCE_RMS_N {
+        return None;
     }
     let (mut diff, mut refn) = (0.0, 0.0);
     for (f, r) in forces[..n].iter().zip(&reference[..n]) {
         diff += (f - r).norm_squared();
         refn += r.norm_squared();
     }
-    (diff / refn.max(Real::MIN_POSITIVE)).sqrt()
+    Some((diff / refn).sqrt())
 }
+
+/// A reference whose force RMS is below this (N) sends no force to compare with.
+pub(crate) const MIN_REFERENCE_RMS_N: Real = 1e-6;
 
 /// RMS of the force samples (N).
 pub(crate) fn rms(forces: &[Vec3]) -> Real {
@@ -227,10 +262,11 @@ mod tests {
     #[test]
     fn force_error_is_relative_to_the_reference() {
         let r = vec![Vec3::new(1.0, 0.0, 0.0); 4];
-        assert_eq!(force_error_rel(&r, &r), 0.0);
+        assert_eq!(force_error_rel(&r, &r), Some(0.0));
         let f = vec![Vec3::new(1.1, 0.0, 0.0); 4];
-        assert!((force_error_rel(&f, &r) - 0.1).abs() < 1e-12);
+        assert!((force_error_rel(&f, &r).unwrap() - 0.1).abs() < 1e-12);
         assert!((rms(&f) - 1.1).abs() < 1e-12);
-        assert!(force_error_rel(&[], &r).is_nan());
+        assert_eq!(force_error_rel(&[], &r), None);
+        assert_eq!(force_error_rel(&f, &[Vec3::zeros(); 4]), None);
     }
 }

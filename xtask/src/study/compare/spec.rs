@@ -94,6 +94,9 @@ pub(crate) struct Study {
     pub(crate) haptic_hz: Option<Vec<Real>>,
 }
 
+/// The longest run a study may ask for (s).
+pub(crate) const MAX_DURATION_S: Real = 600.0;
+
 /// One combination of the axes (`None`: the scene's value).
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub(crate) struct Config {
@@ -120,6 +123,11 @@ fn axis(
     if let Some(bad) = v.iter().find(|x| !(rule.1)(**x)) {
         bail!("axes.{field}: {bad} is out of range (expected {})", rule.0);
     }
+    for (i, a) in v.iter().enumerate() {
+        if v[..i].contains(a) {
+            bail!("axes.{field}: {a} is listed twice");
+        }
+    }
     Ok(Some(v))
 }
 
@@ -139,14 +147,30 @@ impl Study {
         if !scene.is_file() {
             bail!("scene: {} does not exist", scene.display());
         }
+        if !(raw.duration_s.is_finite() && raw.duration_s > 0.0 && raw.duration_s <= MAX_DURATION_S)
+        {
+            bail!(
+                "duration_s: {} (expected > 0 and at most {MAX_DURATION_S} s)",
+                raw.duration_s
+            );
+        }
         let motion = raw.motion.map(|m| base.join(m));
         if let Some(m) = &motion {
             if !m.is_file() {
                 bail!("motion: {} does not exist", m.display());
             }
-        }
-        if !(raw.duration_s.is_finite() && raw.duration_s > 0.0) {
-            bail!("duration_s: {} (expected > 0 s)", raw.duration_s);
+            // Read it now, so that a malformed recording stops the study before it runs.
+            let replay = haptic_device::ReplayDevice::open(m)
+                .with_context(|| format!("motion: {}", m.display()))?;
+            let (t0, t1) = replay.time_span_s();
+            if t1 - t0 < raw.duration_s {
+                eprintln!(
+                    "warning: motion {} lasts {:.2} s, less than duration_s = {} s: the hand holds its last pose after it",
+                    m.display(),
+                    t1 - t0,
+                    raw.duration_s
+                );
+            }
         }
         if !(raw.error_budget.is_finite() && raw.error_budget > 0.0) {
             bail!("error_budget: {} (expected > 0)", raw.error_budget);
@@ -155,10 +179,24 @@ impl Study {
         let integrators = match a.integrator {
             None => vec![IntegratorKind::LinearizedBackwardEuler],
             Some(v) if v.is_empty() => bail!("axes.integrator: empty"),
-            Some(v) => v
-                .iter()
-                .map(|s| s.parse().with_context(|| format!("axes.integrator: `{s}`")))
-                .collect::<anyhow::Result<_>>()?,
+            Some(v) => {
+                let kinds: Vec<IntegratorKind> = v
+                    .iter()
+                    .map(|s| {
+                        s.parse().map_err(|_| {
+                            anyhow::anyhow!(
+                                "axes.integrator: unknown integrator `{s}` (backward_euler, newton_backward_euler, rk4 or forward_euler)"
+                            )
+                        })
+                    })
+                    .collect::<anyhow::Result<_>>()?;
+                for (i, k) in kinds.iter().enumerate() {
+                    if kinds[..i].contains(k) {
+                        bail!("axes.integrator: {k} is listed twice");
+                    }
+                }
+                kinds
+            }
         };
         let backends = match a.backend {
             None => vec![Backend::Lod],
@@ -170,8 +208,11 @@ impl Study {
                     "parry" => Ok(Backend::Parry),
                     other => bail!("axes.backend: unknown back-end `{other}` (lod or parry)"),
                 })
-                .collect::<anyhow::Result<_>>()?,
+                .collect::<anyhow::Result<Vec<_>>>()?,
         };
+        if backends.len() == 2 && backends[0] == backends[1] {
+            bail!("axes.backend: listed twice");
+        }
         let positive: (&str, fn(Real) -> bool) = ("> 0", |x| x.is_finite() && x > 0.0);
         Ok(Self {
             scene,
@@ -196,13 +237,15 @@ impl Study {
                 a.contact_stiffness_n_per_m,
                 positive,
             )?,
-            contact_hz: axis("contact_hz", a.contact_hz, positive)?,
+            contact_hz: axis(
+                "contact_hz",
+                a.contact_hz,
+                ("in [1, 20000] Hz", |x| (1.0..=20_000.0).contains(&x)),
+            )?,
             haptic_hz: axis(
                 "haptic_hz",
                 a.haptic_hz,
-                ("in (0, 20000] Hz", |x| {
-                    x.is_finite() && x > 0.0 && x <= 20_000.0
-                }),
+                ("in [100, 20000] Hz", |x| (100.0..=20_000.0).contains(&x)),
             )?,
         })
     }
@@ -216,7 +259,12 @@ impl Study {
         let mut out = Vec::new();
         for &integrator in &self.integrators {
             for &backend in &self.backends {
-                for error_threshold in opt(&self.thresholds) {
+                // The threshold is the LOD back-end's: parry runs once, with none.
+                let thresholds = match backend {
+                    Backend::Lod => opt(&self.thresholds),
+                    Backend::Parry => vec![None],
+                };
+                for error_threshold in thresholds {
                     for mass_kg in opt(&self.masses_kg) {
                         for coupling in opt(&self.coupling_stiffness) {
                             for contact in opt(&self.contact_stiffness) {
@@ -252,7 +300,9 @@ mod tests {
         let dir = std::env::temp_dir().join(format!("haptic-compare-{}", std::process::id()));
         std::fs::create_dir_all(&dir).unwrap();
         std::fs::write(dir.join("scene.toml"), "").unwrap();
-        let path = dir.join(format!("s{}.toml", text.len()));
+        static NEXT: std::sync::atomic::AtomicUsize = std::sync::atomic::AtomicUsize::new(0);
+        let n = NEXT.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
+        let path = dir.join(format!("s{n}.toml"));
         std::fs::write(&path, text).unwrap();
         Study::load(&path)
     }
@@ -265,6 +315,15 @@ mod tests {
         .unwrap();
         let c = s.configurations();
         assert_eq!(c.len(), 12);
+        let t = study(
+            "scene = \"scene.toml\"\n[axes]\nbackend = [\"lod\", \"parry\"]\nerror_threshold = [0.0, 0.025, 0.05]\n",
+        )
+        .unwrap();
+        assert_eq!(
+            t.configurations().len(),
+            4,
+            "three LOD thresholds and one parry run"
+        );
         assert_eq!(c[0].integrator, IntegratorKind::LinearizedBackwardEuler);
         assert_eq!(c[11].mass_kg, Some(1.0));
         assert!(c.iter().all(|c| c.error_threshold.is_none()));
@@ -301,6 +360,19 @@ mod tests {
                 "axes.haptic_hz",
             ),
             ("scene = \"scene.toml\"\n[axes]\nspeed = [1.0]\n", "speed"),
+            (
+                "scene = \"scene.toml\"\n[axes]\nmass_kg = [0.1, 0.1]\n",
+                "axes.mass_kg",
+            ),
+            (
+                "scene = \"scene.toml\"\n[axes]\ncontact_hz = [1e-9]\n",
+                "axes.contact_hz",
+            ),
+            (
+                "scene = \"scene.toml\"\n[axes]\nhaptic_hz = [1.0]\n",
+                "axes.haptic_hz",
+            ),
+            ("scene = \"scene.toml\"\nduration_s = 1e13\n", "duration_s"),
         ];
         for (text, field) in cases {
             let e = format!("{:#}", study(text).unwrap_err());
