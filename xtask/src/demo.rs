@@ -10,7 +10,10 @@ use haptic_core::{CollisionBackend, Integrator};
 use haptic_dynamics::{
     ForwardEuler, IntegratorKind, LinearizedBackwardEuler, NewtonBackwardEuler, PenaltyModel, Rk4,
 };
-use haptic_runtime::{ContactLatency, PipelineBuilder, RuntimeError, Scene, SceneParts, Summary};
+use haptic_runtime::recording::RecordingHeader;
+use haptic_runtime::{
+    ContactLatency, PipelineBuilder, RunRecorder, RuntimeError, Scene, SceneParts, Summary,
+};
 use indicatif::{ProgressBar, ProgressStyle};
 
 use crate::common::repo_root;
@@ -42,6 +45,9 @@ pub struct DemoArgs {
     /// Write the telemetry summary as JSON.
     #[arg(long)]
     pub json: Option<PathBuf>,
+    /// Record the run (virtual time only) to this file, for `cargo xtask view`.
+    #[arg(long)]
+    pub record: Option<PathBuf>,
 }
 
 /// The scene file of a named scene, or the path given.
@@ -84,6 +90,32 @@ pub fn run(args: &DemoArgs) -> anyhow::Result<()> {
             .sum::<usize>(),
     );
     let kind: IntegratorKind = args.integrator.parse()?;
+    if args.record.is_some() && !args.virtual_time {
+        bail!(
+            "--record needs --virtual-time: the real-time haptic thread does no I/O, and a recording of every frame is I/O"
+        );
+    }
+    let header = match &args.record {
+        Some(_) => Some(crate::recording::header_for_scene(
+            &scene,
+            &parts.tool_mesh_offset_m,
+            vec![
+                ("integrator".to_owned(), kind.name().to_owned()),
+                ("back-end".to_owned(), args.backend.clone()),
+                (
+                    "contact rate".to_owned(),
+                    format!("{} Hz (virtual time)", parts.contact_hz.unwrap_or(250.0)),
+                ),
+                (
+                    "error threshold".to_owned(),
+                    format!("{}", parts.config.query.error_threshold),
+                ),
+            ],
+            parts.config.haptic_rate_hz,
+            1000.0,
+        )?),
+        None => None,
+    };
     let summary = match args.backend.as_str() {
         "lod" => {
             let backend = LodBackend::new(&parts.tool_mesh, &parts.obstacles)?;
@@ -92,12 +124,12 @@ pub fn run(args: &DemoArgs) -> anyhow::Result<()> {
                 t0.elapsed().as_secs_f64(),
                 backend.node_count()
             );
-            with_integrator(kind, backend, &parts, args)
+            with_integrator(kind, backend, &parts, args, header.as_ref())
         }
         "parry" => {
             let backend = haptic_collision::ParryBackend::new(&parts.tool_mesh, &parts.obstacles)?;
             println!("parry meshes built in {:.2} s", t0.elapsed().as_secs_f64());
-            with_integrator(kind, backend, &parts, args)
+            with_integrator(kind, backend, &parts, args, header.as_ref())
         }
         other => bail!("unknown back-end `{other}`: use lod or parry"),
     };
@@ -131,19 +163,20 @@ fn with_integrator<B>(
     backend: B,
     parts: &SceneParts,
     args: &DemoArgs,
+    header: Option<&RecordingHeader>,
 ) -> anyhow::Result<Summary>
 where
     B: CollisionBackend + Send,
 {
     match kind {
         IntegratorKind::LinearizedBackwardEuler => {
-            run_pipeline(LinearizedBackwardEuler, backend, parts, args)
+            run_pipeline(LinearizedBackwardEuler, backend, parts, args, header)
         }
         IntegratorKind::NewtonBackwardEuler => {
-            run_pipeline(NewtonBackwardEuler::default(), backend, parts, args)
+            run_pipeline(NewtonBackwardEuler::default(), backend, parts, args, header)
         }
-        IntegratorKind::Rk4 => run_pipeline(Rk4, backend, parts, args),
-        IntegratorKind::ForwardEuler => run_pipeline(ForwardEuler, backend, parts, args),
+        IntegratorKind::Rk4 => run_pipeline(Rk4, backend, parts, args, header),
+        IntegratorKind::ForwardEuler => run_pipeline(ForwardEuler, backend, parts, args, header),
     }
 }
 
@@ -152,6 +185,7 @@ fn run_pipeline<I, B>(
     backend: B,
     parts: &SceneParts,
     args: &DemoArgs,
+    header: Option<&RecordingHeader>,
 ) -> anyhow::Result<Summary>
 where
     I: Integrator + Send,
@@ -185,16 +219,35 @@ where
         let latency = ContactLatency::FixedRate {
             rate_hz: parts.contact_hz.unwrap_or(250.0),
         };
-        let mut last_ms = 0;
-        let s = pipeline.run_virtual(args.seconds, latency, |t, _| {
-            let ms = (t * 1000.0) as u64;
-            if ms >= last_ms + 50 {
-                bar.set_position(ms);
-                last_ms = ms;
-            }
-        })?;
-        bar.finish_and_clear();
-        s
+        if let (Some(path), Some(header)) = (&args.record, header) {
+            let file = std::io::BufWriter::new(
+                std::fs::File::create(path)
+                    .with_context(|| format!("creating {}", path.display()))?,
+            );
+            let mut recorder = RunRecorder::new(file, header, parts.config.query.error_threshold)?;
+            let s = pipeline.run_virtual_observed(args.seconds, latency, &mut recorder)?;
+            recorder
+                .finish(&s)
+                .with_context(|| format!("writing {}", path.display()))?;
+            bar.finish_and_clear();
+            println!(
+                "recorded to {} (view it with `cargo xtask view {}`)",
+                path.display(),
+                path.display()
+            );
+            s
+        } else {
+            let mut last_ms = 0;
+            let s = pipeline.run_virtual(args.seconds, latency, |t, _| {
+                let ms = (t * 1000.0) as u64;
+                if ms >= last_ms + 50 {
+                    bar.set_position(ms);
+                    last_ms = ms;
+                }
+            })?;
+            bar.finish_and_clear();
+            s
+        }
     } else {
         let s = pipeline.run_realtime(args.seconds, |snap| {
             bar.set_position((snap.time_s * 1000.0) as u64);

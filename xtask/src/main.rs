@@ -18,8 +18,10 @@ mod fixture_contacts;
 mod fixture_poses;
 #[allow(dead_code)]
 mod plot;
+mod recording;
 mod stress;
 mod study;
+mod view;
 
 use std::path::PathBuf;
 
@@ -74,6 +76,8 @@ enum Command {
     Stress(stress::StressArgs),
     /// List the available devices.
     Devices,
+    /// Write a recorded run as a self-contained HTML replay page.
+    View(view::ViewArgs),
 }
 
 fn main() -> anyhow::Result<()> {
@@ -85,5 +89,6 @@ fn main() -> anyhow::Result<()> {
         Command::WorkPrecision(args) => study::run(study::Study::WorkPrecision(args)),
         Command::Stress(args) => stress::run(&args),
         Command::Devices => devices::run(),
+        Command::View(args) => view::run(&args),
     }
 }

@@ -11,6 +11,9 @@ pub struct SceneParts {
     pub body: haptic_core::RigidBody,
     /// The tool mesh in its body frame (origin at the centre of mass), m.
     pub tool_mesh: haptic_collision::TriMesh,
+    /// The translation from the tool mesh file's frame (scaled to metres) to its body frame:
+    /// minus the centre of mass (m).
+    pub tool_mesh_offset_m: Vec3,
     /// Initial pose of the tool's centre-of-mass frame.
     pub tool_pose: Pose,
     /// The obstacles, each with its pose.
@@ -143,6 +146,7 @@ impl Scene {
         Ok(SceneParts {
             body,
             tool_mesh,
+            tool_mesh_offset_m: -unit.centre_of_mass_m,
             tool_pose,
             obstacles,
             coupling,

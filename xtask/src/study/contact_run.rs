@@ -1,10 +1,86 @@
 //! One contact run of the studies: a scene's parts with overrides, driven open loop by a device,
 //! stepped in virtual time, with the series the paper plots recorded at every haptic step.
 
-use haptic_core::{CollisionBackend, Device, Integrator, LinearizationMode};
+use std::fs::File;
+use std::io::BufWriter;
+use std::path::PathBuf;
+
+use haptic_core::{CollisionBackend, ContactSet, Device, Integrator, LinearizationMode, Real};
 use haptic_dynamics::PenaltyModel;
-use haptic_runtime::{ContactLatency, PipelineBuilder, SceneParts, Summary};
+use haptic_runtime::recording::RecordingHeader;
+use haptic_runtime::{
+    ContactLatency, ContactUpdate, HapticStage, PipelineBuilder, RunObserver, RunRecorder,
+    SceneParts, Summary,
+};
 use serde::Serialize;
+
+/// Where to record a run (for `cargo xtask view`), and its header.
+pub struct Record {
+    /// The recording file.
+    pub path: PathBuf,
+    /// Its header.
+    pub header: RecordingHeader,
+}
+
+/// Collects the series and forwards to a recorder, if any.
+struct Collector<'a> {
+    series: Series,
+    first_contact_s: Option<f64>,
+    mode: LinearizationMode,
+    progress: Option<&'a indicatif::ProgressBar>,
+    recorder: Option<RunRecorder<BufWriter<File>>>,
+}
+
+impl<I: Integrator, D: Device> RunObserver<I, D> for Collector<'_> {
+    fn haptic_step(&mut self, t: Real, h: &HapticStage<I, D>) {
+        let tool = h.tool();
+        let y = tool.to_vector();
+        let contact = h.contact();
+        if contact.raw_contact_count > 0 && self.first_contact_s.is_none() {
+            self.first_contact_s = Some(t);
+        }
+        if let Some(bar) = self.progress {
+            if self.series.t_s.len() % 10 == 0 {
+                bar.set_position((t * 1e3) as u64);
+            }
+        }
+        let series = &mut self.series;
+        series.t_s.push(t);
+        series.penetration_m.push(contact.max_penetration_m);
+        series
+            .deviation_m
+            .push(h.forces().coupling.deviation(tool).translation_m);
+        series
+            .contact_force_n
+            .push(h.forces().contact.wrench_at(&y, self.mode).force.norm());
+        series.coupling_force_n.push(h.last_wrench().force.norm());
+        if let Some(r) = &mut self.recorder {
+            RunObserver::<I, D>::haptic_step(r, t, h);
+        }
+    }
+
+    fn contact_update(
+        &mut self,
+        t: Real,
+        available: Real,
+        update: &ContactUpdate,
+        raw: &ContactSet,
+        representatives: &ContactSet,
+        query_time_s: Real,
+    ) {
+        if let Some(r) = &mut self.recorder {
+            RunObserver::<I, D>::contact_update(
+                r,
+                t,
+                available,
+                update,
+                raw,
+                representatives,
+                query_time_s,
+            );
+        }
+    }
+}
 
 /// The series of one run, one sample per haptic step.
 #[derive(Debug, Clone, Default, Serialize)]
@@ -43,6 +119,7 @@ pub fn run<I, B, D>(
     seconds: f64,
     latency: ContactLatency,
     progress: Option<&indicatif::ProgressBar>,
+    record: Option<&Record>,
 ) -> anyhow::Result<RunResult>
 where
     I: Integrator,
@@ -57,34 +134,26 @@ where
         .coupling(parts.coupling)
         .config(parts.config)
         .build()?;
-    let mut series = Series::default();
-    let mut first_contact_s = None;
-    let mode = parts.config.linearization;
-    let summary = pipeline.run_virtual(seconds, latency, |t, h| {
-        let tool = h.tool();
-        let y = tool.to_vector();
-        let contact = h.contact();
-        if contact.raw_contact_count > 0 && first_contact_s.is_none() {
-            first_contact_s = Some(t);
-        }
-        if let Some(bar) = progress {
-            if series.t_s.len() % 10 == 0 {
-                bar.set_position((t * 1e3) as u64);
-            }
-        }
-        series.t_s.push(t);
-        series.penetration_m.push(contact.max_penetration_m);
-        series
-            .deviation_m
-            .push(h.forces().coupling.deviation(tool).translation_m);
-        let contact_force = match mode {
-            LinearizationMode::Linearized | LinearizationMode::Constant => {
-                h.forces().contact.wrench_at(&y, mode).force.norm()
-            }
-        };
-        series.contact_force_n.push(contact_force);
-        series.coupling_force_n.push(h.last_wrench().force.norm());
-    })?;
+    let recorder = match record {
+        Some(r) => Some(RunRecorder::new(
+            BufWriter::new(File::create(&r.path)?),
+            &r.header,
+            parts.config.query.error_threshold,
+        )?),
+        None => None,
+    };
+    let mut collector = Collector {
+        series: Series::default(),
+        first_contact_s: None,
+        mode: parts.config.linearization,
+        progress,
+        recorder,
+    };
+    let summary = pipeline.run_virtual_observed(seconds, latency, &mut collector)?;
+    if let Some(r) = collector.recorder.take() {
+        r.finish(&summary)?;
+    }
+    let (series, first_contact_s) = (collector.series, collector.first_contact_s);
     if let Some(bar) = progress {
         bar.finish();
     }

@@ -84,6 +84,7 @@ fn run_config(
     base: &SceneParts,
     c: &Config,
     bar: &indicatif::ProgressBar,
+    record: &contact_run::Record,
 ) -> anyhow::Result<RunResult> {
     let parts = parts_for(base, c)?;
     let device = ScriptedDevice::from_waypoints(trajectory(&parts.tool_pose), parts.limits)?;
@@ -92,7 +93,16 @@ fn run_config(
         rate_hz: CONTACT_HZ,
     };
     match c.integrator {
-        "rk4" => contact_run::run(&parts, Rk4, backend, device, DURATION_S, latency, Some(bar)),
+        "rk4" => contact_run::run(
+            &parts,
+            Rk4,
+            backend,
+            device,
+            DURATION_S,
+            latency,
+            Some(bar),
+            Some(record),
+        ),
         _ => contact_run::run(
             &parts,
             LinearizedBackwardEuler,
@@ -101,6 +111,7 @@ fn run_config(
             DURATION_S,
             latency,
             Some(bar),
+            Some(record),
         ),
     }
 }
@@ -117,13 +128,37 @@ pub fn run(args: &crate::OutArgs) -> anyhow::Result<()> {
     let mut fk = Vec::new();
     // The configurations run in parallel (virtual time: timing does not affect the results).
     let multi = indicatif::MultiProgress::new();
+    let records: Vec<contact_run::Record> = CONFIGS
+        .iter()
+        .enumerate()
+        .map(|(i, c)| {
+            Ok(contact_run::Record {
+                path: dir.join(format!("cup-{}.rec", i + 1)),
+                header: crate::recording::header_for_scene(
+                    &scene,
+                    &base.tool_mesh_offset_m,
+                    vec![
+                        ("configuration".to_owned(), c.name.to_owned()),
+                        ("integrator".to_owned(), c.integrator.to_owned()),
+                        (
+                            "contact rate".to_owned(),
+                            format!("{CONTACT_HZ} Hz (virtual time)"),
+                        ),
+                    ],
+                    1000.0,
+                    1000.0,
+                )?,
+            })
+        })
+        .collect::<anyhow::Result<_>>()?;
     let results: Vec<anyhow::Result<RunResult>> = std::thread::scope(|s| {
         let handles: Vec<_> = CONFIGS
             .iter()
-            .map(|c| {
+            .zip(&records)
+            .map(|(c, record)| {
                 let bar = contact_run::bar(&multi, c.name, DURATION_S);
                 let base = &base;
-                s.spawn(move || run_config(base, c, &bar))
+                s.spawn(move || run_config(base, c, &bar, record))
             })
             .collect();
         handles
@@ -187,6 +222,11 @@ pub fn run(args: &crate::OutArgs) -> anyhow::Result<()> {
         ));
         fc.push(Series::new(c.name, points(&s.t_s, &s.contact_force_n, 2)));
         fk.push(Series::new(c.name, points(&s.t_s, &s.coupling_force_n, 2)));
+    }
+    for r in &records {
+        let page = r.path.with_extension("html");
+        crate::view::write_page(&r.path, &page)?;
+        println!("replay: {}", page.display());
     }
     write_json(
         &dir.join("cup.json"),

@@ -56,6 +56,7 @@ fn parts() -> anyhow::Result<SceneParts> {
     Ok(SceneParts {
         body,
         tool_mesh,
+        tool_mesh_offset_m: -unit.centre_of_mass_m,
         tool_pose,
         obstacles: vec![(lower, Pose::identity())],
         coupling,
@@ -105,6 +106,7 @@ fn run_one(
     linearized: bool,
     latency_scale: Real,
     bar: &indicatif::ProgressBar,
+    record: Option<&contact_run::Record>,
 ) -> anyhow::Result<(JawsRow, contact_run::Series, bool)> {
     let mut parts = base.clone();
     parts.config.query = QueryParams::new(parts.penalty.delta_m, threshold)?;
@@ -125,6 +127,7 @@ fn run_one(
         DURATION_S,
         latency,
         Some(bar),
+        record,
     )?;
     let s = &r.summary;
     let rate = |latency_s: Real| {
@@ -192,6 +195,7 @@ pub fn run(args: &crate::OutArgs) -> anyhow::Result<()> {
         true,
         1.0,
         &contact_run::bar(&multi, "calibration, 0.4 %", DURATION_S),
+        None,
     )?;
     let median_cost_s = 1.0 / calib.contact_rate_hz_median.max(1e-9);
     let latency_scale = (1.0 / TARGET_RATE_AT_0_4_HZ) / median_cost_s;
@@ -212,8 +216,63 @@ pub fn run(args: &crate::OutArgs) -> anyhow::Result<()> {
                 if linearized { "" } else { ", constant" }
             );
             let bar = contact_run::bar(&multi, &name, DURATION_S);
-            let (row, series, _) =
-                run_one(&base, &backend, threshold, linearized, latency_scale, &bar)?;
+            let record = contact_run::Record {
+                path: dir.join(format!(
+                    "jaws-{}{}.rec",
+                    crate::plot::tick_label(threshold * 100.0),
+                    if linearized { "" } else { "-constant" }
+                )),
+                header: crate::recording::header(
+                    "jaws",
+                    vec![
+                        (
+                            "error threshold".to_owned(),
+                            format!("{} %", threshold * 100.0),
+                        ),
+                        (
+                            "contact model".to_owned(),
+                            if linearized {
+                                "linearized"
+                            } else {
+                                "held constant"
+                            }
+                            .to_owned(),
+                        ),
+                        (
+                            "contact latency".to_owned(),
+                            format!("measured cost × {latency_scale:.1}"),
+                        ),
+                    ],
+                    vec![
+                        crate::recording::mesh_record(
+                            "tool",
+                            &meshes_dir().join("jaw_upper_openfulljaw_p26.stl"),
+                            1e-3,
+                            crate::recording::tool_placement(&base.tool_mesh_offset_m),
+                        )?,
+                        crate::recording::mesh_record(
+                            "obstacle",
+                            &meshes_dir().join("jaw_lower_openfulljaw_p26.stl"),
+                            1e-3,
+                            crate::recording::obstacle_placement(&Pose::identity()),
+                        )?,
+                    ],
+                    1000.0,
+                    1000.0,
+                ),
+            };
+            let (row, series, _) = run_one(
+                &base,
+                &backend,
+                threshold,
+                linearized,
+                latency_scale,
+                &bar,
+                Some(&record),
+            )?;
+            let page = record.path.with_extension("html");
+            let bytes = crate::view::write_page(&record.path, &page)?;
+            println!("replay: {} ({:.1} MB)", page.display(), bytes as f64 / 1e6);
             pen.push(Series::new(
                 name.clone(),
                 points(

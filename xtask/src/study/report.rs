@@ -8,6 +8,20 @@ fn read(path: &std::path::Path) -> anyhow::Result<Value> {
     Ok(serde_json::from_str(&std::fs::read_to_string(path)?)?)
 }
 
+/// `to` relative to the folder `from` when it lies below it or beside it, else absolute.
+fn link(from: &std::path::Path, to: &std::path::Path) -> String {
+    if let Ok(rel) = to.strip_prefix(from) {
+        return rel.display().to_string();
+    }
+    match (
+        from.parent(),
+        to.strip_prefix(from.parent().unwrap_or(from)),
+    ) {
+        (Some(_), Ok(rel)) => format!("../{}", rel.display()),
+        _ => to.display().to_string(),
+    }
+}
+
 fn f(v: &Value) -> f64 {
     v.as_f64().unwrap_or(f64::NAN)
 }
@@ -90,28 +104,30 @@ pub fn write(args: &crate::OutArgs) -> anyhow::Result<()> {
     writeln!(md, "## Spoon in cup (Fig. 4)\n")?;
     writeln!(
         md,
-        "| configuration | stable | max penetration | RMS coupling force free / contact | the paper |"
+        "| configuration | stable | max penetration | RMS coupling force free / contact | the paper | replay |"
     )?;
-    writeln!(md, "|---|---|---|---|---|")?;
+    writeln!(md, "|---|---|---|---|---|---|")?;
     let paper_cup = [
         "stable, penetration < 0.6 mm",
         "contact oscillations",
         "contact oscillations",
     ];
-    for (c, paper) in cup["configurations"]
+    for (i, (c, paper)) in cup["configurations"]
         .as_array()
         .into_iter()
         .flatten()
         .zip(paper_cup)
+        .enumerate()
     {
         writeln!(
             md,
-            "| {} | {} | {:.3} mm | {:.3} N / {:.3} N | {paper} |",
+            "| {} | {} | {:.3} mm | {:.3} N / {:.3} N | {paper} | [page]({}) |",
             c["name"].as_str().unwrap_or("?"),
             c["stable"],
             f(&c["max_penetration_m"]) * 1e3,
             f(&c["rms_coupling_force_free_n"]),
             f(&c["rms_coupling_force_contact_n"]),
+            link(&cup_dir, &cup_dir.join(format!("cup-{}.html", i + 1))),
         )?;
     }
     writeln!(
@@ -123,7 +139,7 @@ pub fn write(args: &crate::OutArgs) -> anyhow::Result<()> {
          implicit solve; for RK4 at 100 g the contact stiffness of five clusters (10 kN/m) gives \
          ω h ≈ 0.32 at 1 kHz, well inside RK4's stability region, and the contact thread runs at \
          500 Hz in virtual time. The paper does not give its contact rate or contact damping for \
-         this experiment; runs with contact damping 0 settle too (`docs/results.md`).\n"
+         this experiment.\n"
     )?;
 
     writeln!(md, "## Jaws (Fig. 6)\n")?;
@@ -136,13 +152,13 @@ pub fn write(args: &crate::OutArgs) -> anyhow::Result<()> {
     )?;
     writeln!(
         md,
-        "| threshold | contact model | stable | max penetration | contact rate median (min) | raw contacts max | clusters max |"
+        "| threshold | contact model | stable | max penetration | contact rate median (min) | raw contacts max | clusters max | replay |"
     )?;
-    writeln!(md, "|---|---|---|---|---|---|---|")?;
+    writeln!(md, "|---|---|---|---|---|---|---|---|")?;
     for r in jaws["runs"].as_array().into_iter().flatten() {
         writeln!(
             md,
-            "| {:.1} % | {} | {} | {:.3} mm | {:.0} Hz ({:.0} Hz) | {} | {} |",
+            "| {:.1} % | {} | {} | {:.3} mm | {:.0} Hz ({:.0} Hz) | {} | {} | [page]({}) |",
             f(&r["threshold"]) * 100.0,
             if r["linearized"].as_bool() == Some(true) {
                 "linearized"
@@ -155,6 +171,18 @@ pub fn write(args: &crate::OutArgs) -> anyhow::Result<()> {
             f(&r["contact_rate_hz_min"]),
             r["raw_contacts_max"],
             r["clusters_max"],
+            link(
+                &cup_dir,
+                &jaws_dir.join(format!(
+                    "jaws-{}{}.html",
+                    crate::plot::tick_label(f(&r["threshold"]) * 100.0),
+                    if r["linearized"].as_bool() == Some(true) {
+                        ""
+                    } else {
+                        "-constant"
+                    }
+                ))
+            ),
         )?;
     }
     writeln!(
