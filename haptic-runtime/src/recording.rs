@@ -1,6 +1,9 @@
 //! Recordings of a run for replay: what the tool felt, frame by frame, and what the contact
-//! thread found at each update. Written by [`RunRecorder`] (a [`RunObserver`]), read back by
-//! [`RunRecording::read`]; `cargo xtask view` turns one into a self-contained HTML page.
+//! thread found at each update. Written by [`RunRecorder`]: as a [`RunObserver`] of a
+//! virtual-time run ([`crate::Pipeline::run_virtual_observed`]), or after a real-time run
+//! ([`crate::Pipeline::run_realtime_recorded`], whose haptic thread fills a buffer reserved
+//! before its loop). Read back by [`RunRecording::read`]; `cargo xtask view` turns one into a
+//! self-contained HTML page.
 //!
 //! # Format (`haptic-run-recording`, version 1)
 //! UTF-8 JSON Lines. The first line is the [`RecordingHeader`] (`"format":
@@ -115,6 +118,61 @@ pub struct UpdateRecord {
     pub representatives: Vec<ContactRecord>,
     /// Deepest penetration (m).
     pub max_penetration_m: Real,
+}
+
+impl Frame {
+    /// The frame of `haptic` after its step ending at `t_s`. Allocates nothing.
+    pub fn of<I: haptic_core::Integrator, D: haptic_core::Device>(
+        t_s: Real,
+        haptic: &HapticStage<I, D>,
+    ) -> Self {
+        let tool = haptic.tool();
+        let coupling = &haptic.forces().coupling;
+        let device = coupling.device();
+        let w = haptic.last_wrench();
+        let grasp: Vec3 = tool.x + tool.q * coupling.grasp().r_c;
+        Frame {
+            t: t_s,
+            tool: pose_array(&tool.pose()),
+            device: pose_array(&device.pose),
+            grasp_m: grasp.into(),
+            force_n: w.force.into(),
+            torque_nm: w.torque.into(),
+            deviation_m: coupling.deviation(tool).translation_m,
+        }
+    }
+}
+
+impl UpdateRecord {
+    /// The record of a contact query at `t_s` that takes effect at `available_s`: the deepest
+    /// `cap` raw contacts (sorted in `scratch`, reused) and the representatives.
+    #[allow(clippy::too_many_arguments)]
+    pub fn of(
+        t_s: Real,
+        available_s: Real,
+        update: &ContactUpdate,
+        raw: &ContactSet,
+        representatives: &ContactSet,
+        query_time_s: Real,
+        threshold: Real,
+        cap: usize,
+        scratch: &mut Vec<Contact>,
+    ) -> Self {
+        scratch.clear();
+        scratch.extend_from_slice(raw.as_slice());
+        scratch.sort_by(|a, b| b.depth_m.total_cmp(&a.depth_m));
+        scratch.truncate(cap);
+        UpdateRecord {
+            t: t_s,
+            available_t: available_s,
+            query_time_s,
+            threshold,
+            raw_contact_count: update.raw_contact_count,
+            raw: scratch.iter().map(contact_record).collect(),
+            representatives: representatives.iter().map(contact_record).collect(),
+            max_penetration_m: update.max_penetration_m,
+        }
+    }
 }
 
 /// One line of a recording after the header.
@@ -261,6 +319,31 @@ impl<W: Write> RunRecorder<W> {
         }
     }
 
+    /// Writes a frame.
+    pub fn write_frame(&mut self, frame: &Frame) {
+        self.line(&Line::Frame(*frame));
+    }
+
+    /// Writes a contact update.
+    pub fn write_update(&mut self, update: &UpdateRecord) {
+        self.line(&Line::Update(update.clone()));
+    }
+
+    /// Seconds between two recorded frames.
+    pub fn frame_period_s(&self) -> Real {
+        self.frame_period_s
+    }
+
+    /// Raw contacts kept per update at most.
+    pub fn contact_cap(&self) -> usize {
+        self.contact_cap
+    }
+
+    /// The error threshold recorded with each update.
+    pub fn threshold(&self) -> Real {
+        self.threshold
+    }
+
     /// Writes the summary line and returns the writer.
     ///
     /// # Errors
@@ -283,21 +366,7 @@ impl<W: Write, I: haptic_core::Integrator, D: haptic_core::Device> RunObserver<I
             return;
         }
         self.next_frame_s = t_s + self.frame_period_s;
-        let tool = haptic.tool();
-        let coupling = &haptic.forces().coupling;
-        let device = coupling.device();
-        let w = haptic.last_wrench();
-        let grasp: Vec3 = tool.x + tool.q * coupling.grasp().r_c;
-        let frame = Frame {
-            t: t_s,
-            tool: pose_array(&tool.pose()),
-            device: pose_array(&device.pose),
-            grasp_m: grasp.into(),
-            force_n: w.force.into(),
-            torque_nm: w.torque.into(),
-            deviation_m: coupling.deviation(tool).translation_m,
-        };
-        self.line(&Line::Frame(frame));
+        self.write_frame(&Frame::of(t_s, haptic));
     }
 
     fn contact_update(
@@ -309,21 +378,20 @@ impl<W: Write, I: haptic_core::Integrator, D: haptic_core::Device> RunObserver<I
         representatives: &ContactSet,
         query_time_s: Real,
     ) {
-        self.scratch.clear();
-        self.scratch.extend_from_slice(raw.as_slice());
-        self.scratch.sort_by(|a, b| b.depth_m.total_cmp(&a.depth_m));
-        self.scratch.truncate(self.contact_cap);
-        let record = UpdateRecord {
-            t: t_s,
-            available_t: available_s,
+        let mut scratch = std::mem::take(&mut self.scratch);
+        let record = UpdateRecord::of(
+            t_s,
+            available_s,
+            update,
+            raw,
+            representatives,
             query_time_s,
-            threshold: self.threshold,
-            raw_contact_count: update.raw_contact_count,
-            raw: self.scratch.iter().map(contact_record).collect(),
-            representatives: representatives.iter().map(contact_record).collect(),
-            max_penetration_m: update.max_penetration_m,
-        };
-        self.line(&Line::Update(record));
+            self.threshold,
+            self.contact_cap,
+            &mut scratch,
+        );
+        self.scratch = scratch;
+        self.write_update(&record);
     }
 }
 

@@ -109,3 +109,35 @@ fn foreign_other_version_and_truncated_files_are_typed_errors() {
         Err(RecordingError::Io { .. })
     ));
 }
+
+/// A real-time run records too: frames from a buffer the haptic thread filled without
+/// allocating, updates from the contact thread, written in time order afterwards.
+#[test]
+fn a_real_time_run_records_in_time_order() {
+    let mut p = PipelineBuilder::new(
+        box_body(),
+        Pose::from_position(Vec3::new(0.0, 0.0, HALF_M + 0.01)),
+    )
+    .integrator(LinearizedBackwardEuler)
+    .backend(BoxOnFloor::new(HALF_M))
+    .contact_model(PenaltyModel::new(PenaltyParams::default()).unwrap())
+    .device(pressing_hand())
+    .config(PipelineConfig {
+        realtime_scheduling: false,
+        ..PipelineConfig::default()
+    })
+    .build()
+    .unwrap();
+    let mut rec = RunRecorder::new(Vec::new(), &header(), 0.0).unwrap();
+    let summary = p.run_realtime_recorded(0.3, |_| {}, &mut rec).unwrap();
+    let bytes = rec.finish(&summary).unwrap();
+    let r = RunRecording::from_reader(&bytes[..]).unwrap();
+    assert!(
+        r.frames.len() >= 140 && r.frames.len() <= 152,
+        "{} frames at 500 Hz in 0.3 s",
+        r.frames.len()
+    );
+    assert!(r.frames.windows(2).all(|w| w[0].t < w[1].t));
+    assert!(!r.updates.is_empty());
+    assert!(r.updates.windows(2).all(|w| w[0].t <= w[1].t));
+}

@@ -45,7 +45,7 @@ pub struct DemoArgs {
     /// Write the telemetry summary as JSON.
     #[arg(long)]
     pub json: Option<PathBuf>,
-    /// Record the run (virtual time only) to this file, for `cargo xtask view`.
+    /// Record the run to this file, for `cargo xtask view`.
     #[arg(long)]
     pub record: Option<PathBuf>,
 }
@@ -90,11 +90,6 @@ pub fn run(args: &DemoArgs) -> anyhow::Result<()> {
             .sum::<usize>(),
     );
     let kind: IntegratorKind = args.integrator.parse()?;
-    if args.record.is_some() && !args.virtual_time {
-        bail!(
-            "--record needs --virtual-time: the real-time haptic thread does no I/O, and a recording of every frame is I/O"
-        );
-    }
     let header = match &args.record {
         Some(_) => Some(crate::recording::header_for_scene(
             &scene,
@@ -104,7 +99,11 @@ pub fn run(args: &DemoArgs) -> anyhow::Result<()> {
                 ("back-end".to_owned(), args.backend.clone()),
                 (
                     "contact rate".to_owned(),
-                    format!("{} Hz (virtual time)", parts.contact_hz.unwrap_or(250.0)),
+                    if args.virtual_time {
+                        format!("{} Hz (virtual time)", parts.contact_hz.unwrap_or(250.0))
+                    } else {
+                        "as fast as it runs (real time)".to_owned()
+                    },
                 ),
                 (
                     "error threshold".to_owned(),
@@ -249,13 +248,32 @@ where
             s
         }
     } else {
-        let s = pipeline.run_realtime(args.seconds, |snap| {
+        let progress = |snap: &haptic_runtime::Snapshot| {
             bar.set_position((snap.time_s * 1000.0) as u64);
             bar.set_message(format!(
                 "{} contacts, {} clusters, {:.2} N",
                 snap.raw_contact_count, snap.cluster_count, snap.max_force_n
             ));
-        })?;
+        };
+        let s = if let (Some(path), Some(header)) = (&args.record, header) {
+            let file = std::io::BufWriter::new(
+                std::fs::File::create(path)
+                    .with_context(|| format!("creating {}", path.display()))?,
+            );
+            let mut recorder = RunRecorder::new(file, header, parts.config.query.error_threshold)?;
+            let s = pipeline.run_realtime_recorded(args.seconds, progress, &mut recorder)?;
+            recorder
+                .finish(&s)
+                .with_context(|| format!("writing {}", path.display()))?;
+            println!(
+                "recorded to {} (view it with `cargo xtask view {}`)",
+                path.display(),
+                path.display()
+            );
+            s
+        } else {
+            pipeline.run_realtime(args.seconds, progress)?
+        };
         bar.finish_and_clear();
         s
     };

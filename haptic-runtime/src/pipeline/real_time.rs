@@ -8,6 +8,7 @@ use std::time::{Duration, Instant};
 use haptic_core::{CollisionBackend, ContactModel, Device, Integrator, Real};
 
 use crate::error::RuntimeError;
+use crate::recording::{Frame, RunRecorder, UpdateRecord};
 use crate::stages::{
     ContactStage, ContactUpdate, DeviceFailure, HapticStage, ToolMessage, panic_message,
 };
@@ -148,6 +149,29 @@ struct HapticThreadLinks<'a> {
     contact_out: triple_buffer::Output<(ContactUpdate, Real)>,
     live: &'a LiveTelemetry,
     stop: &'a AtomicBool,
+    /// Frames to record, into a buffer allocated before the loop (never grown in it).
+    frames: Option<FrameBuffer<'a>>,
+}
+
+/// The haptic thread's recording buffer: frames every `period_s`, up to its capacity.
+struct FrameBuffer<'a> {
+    frames: &'a mut Vec<Frame>,
+    period_s: Real,
+    next_s: Real,
+}
+
+/// The recording buffers of a real-time run.
+struct RecordBuffers<'a> {
+    frames: FrameBuffer<'a>,
+    updates: UpdateBuffer<'a>,
+}
+
+/// The contact thread's recording: one record per update.
+struct UpdateBuffer<'a> {
+    updates: &'a mut Vec<UpdateRecord>,
+    cap: usize,
+    threshold: Real,
+    scratch: Vec<haptic_core::Contact>,
 }
 
 /// The body of the real-time haptic thread: `steps` periods of `dt`, each against its own
@@ -187,6 +211,16 @@ fn realtime_haptic_loop<I: Integrator, D: Device>(
             time_s: now_s,
             state: *haptic.tool(),
         });
+        if let Some(fb) = &mut links.frames {
+            // Within the capacity reserved before the loop: no allocation.
+            // Frames on a fixed grid of period_s (the step's clock jitters).
+            if now_s + dt + 1e-6 >= fb.next_s && fb.frames.len() < fb.frames.capacity() {
+                fb.frames.push(Frame::of(now_s + dt, haptic));
+                while fb.next_s <= now_s + dt + 1e-6 {
+                    fb.next_s += fb.period_s;
+                }
+            }
+        }
         live.haptic_steps.store(k + 1, Ordering::Relaxed);
         live.time_s.store(now_s);
         live.max_force_n.store(haptic.stats.max_force_n);
@@ -218,6 +252,7 @@ fn contact_thread_loop<B: CollisionBackend, C: ContactModel>(
     live: &LiveTelemetry,
     stop: &AtomicBool,
     start: Instant,
+    mut record: Option<UpdateBuffer<'_>>,
 ) -> ContactStats {
     let mut stats = ContactStats::default();
     let mut last_seq = 0;
@@ -236,6 +271,19 @@ fn contact_thread_loop<B: CollisionBackend, C: ContactModel>(
                 let now = start.elapsed().as_secs_f64();
                 contact_in.write((update, latency));
                 stats.record(&update, latency, now);
+                if let Some(r) = &mut record {
+                    r.updates.push(UpdateRecord::of(
+                        msg.time_s,
+                        now,
+                        &update,
+                        contact.raw_contacts(),
+                        contact.representatives(),
+                        latency,
+                        r.threshold,
+                        r.cap,
+                        &mut r.scratch,
+                    ));
+                }
                 live.contact_updates.fetch_add(1, Ordering::Relaxed);
                 live.raw_contact_count
                     .store(update.raw_contact_count as u64, Ordering::Relaxed);
@@ -289,8 +337,64 @@ where
     pub fn run_realtime(
         &mut self,
         duration_s: Real,
-        mut progress: impl FnMut(&Snapshot),
+        progress: impl FnMut(&Snapshot),
     ) -> Result<Summary, RuntimeError> {
+        self.run_realtime_inner(duration_s, progress, None)
+    }
+
+    /// [`Pipeline::run_realtime`], recorded into `recorder`: the haptic thread keeps its frames
+    /// in a buffer allocated before its loop (it still allocates nothing, takes no lock and does
+    /// no I/O per step), the contact thread its updates; both are written, in time order, after
+    /// the threads have stopped.
+    ///
+    /// # Errors
+    /// As [`Pipeline::run_realtime`]; the recording then holds the run up to the failure.
+    pub fn run_realtime_recorded<W: std::io::Write>(
+        &mut self,
+        duration_s: Real,
+        progress: impl FnMut(&Snapshot),
+        recorder: &mut RunRecorder<W>,
+    ) -> Result<Summary, RuntimeError> {
+        let period = recorder.frame_period_s();
+        let capacity = (duration_s / period).ceil().max(0.0) as usize + 2;
+        let mut frames = Vec::with_capacity(capacity);
+        let mut updates = Vec::new();
+        let buffers = RecordBuffers {
+            frames: FrameBuffer {
+                frames: &mut frames,
+                period_s: period,
+                next_s: 0.0,
+            },
+            updates: UpdateBuffer {
+                updates: &mut updates,
+                cap: recorder.contact_cap(),
+                threshold: recorder.threshold(),
+                scratch: Vec::new(),
+            },
+        };
+        let outcome = self.run_realtime_inner(duration_s, progress, Some(buffers));
+        let (mut f, mut u) = (frames.iter().peekable(), updates.iter().peekable());
+        loop {
+            match (f.peek(), u.peek()) {
+                (Some(a), Some(b)) if b.t < a.t => recorder.write_update(u.next().expect("peeked")),
+                (Some(_), _) => recorder.write_frame(f.next().expect("peeked")),
+                (None, Some(_)) => recorder.write_update(u.next().expect("peeked")),
+                (None, None) => break,
+            }
+        }
+        outcome
+    }
+
+    fn run_realtime_inner(
+        &mut self,
+        duration_s: Real,
+        mut progress: impl FnMut(&Snapshot),
+        record: Option<RecordBuffers<'_>>,
+    ) -> Result<Summary, RuntimeError> {
+        let (frame_buffer, update_buffer) = match record {
+            Some(r) => (Some(r.frames), Some(r.updates)),
+            None => (None, None),
+        };
         let dt = 1.0 / self.config.haptic_rate_hz;
         let steps = (duration_s / dt).round().max(0.0) as u64;
         let (tool_in, tool_out) = triple_buffer::triple_buffer(&ToolMessage {
@@ -315,7 +419,15 @@ where
                 } else {
                     (false, String::new())
                 };
-                let stats = contact_thread_loop(contact, tool_out, contact_in, live, stop, start);
+                let stats = contact_thread_loop(
+                    contact,
+                    tool_out,
+                    contact_in,
+                    live,
+                    stop,
+                    start,
+                    update_buffer,
+                );
                 (stats, note)
             });
             let haptic_thread = s.spawn(move || {
@@ -330,6 +442,7 @@ where
                     contact_out,
                     live,
                     stop,
+                    frames: frame_buffer,
                 };
                 let wait = WaitPlan::new(granted, Duration::from_secs_f64(dt));
                 let started = Instant::now();
