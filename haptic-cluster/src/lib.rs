@@ -223,6 +223,8 @@ pub struct Clusterer {
     acc: Vec<Accumulator>,
     /// Cost after each assignment of the last call.
     costs: Vec<Real>,
+    /// Each representative's weight `Σ w_i` (m) of the last call, in the order written.
+    representative_weights: Vec<Real>,
 }
 
 impl Clusterer {
@@ -264,6 +266,7 @@ impl Clusterer {
             best_of_old: Vec::with_capacity(k),
             acc: Vec::with_capacity(k),
             costs: Vec::with_capacity(params.max_iterations + 2),
+            representative_weights: Vec::with_capacity(k),
         })
     }
 
@@ -275,6 +278,13 @@ impl Clusterer {
     /// Forgets the previous clusters, so the next call cold-starts.
     pub fn reset(&mut self) {
         self.previous.clear();
+    }
+
+    /// The weight of each representative written by the last call (m), in its order: the sum of
+    /// its contacts' weights `w_i = d_i + δ` (eq. 28's weights). Empty after an empty input or
+    /// an error.
+    pub fn representative_weights(&self) -> &[Real] {
+        &self.representative_weights
     }
 
     /// Makes `representatives` the history that the next call warm-starts from, as if they had
@@ -322,6 +332,7 @@ impl Clusterer {
     ) -> Result<ClusterStats, ClusterError> {
         out.clear();
         self.costs.clear();
+        self.representative_weights.clear();
         if !(delta_m.is_finite() && delta_m > 0.0) {
             return Err(ClusterError::BadDelta { delta_m });
         }
@@ -681,6 +692,7 @@ impl Clusterer {
             let d = (acc.d / acc.w).max(-delta_m);
             // Opposed normals can cancel: fall back to the deepest contact's normal.
             let n = acc.n.try_normalize(1e-9 * acc.w).unwrap_or(deepest.n);
+            self.representative_weights.push(acc.w);
             out.push(Contact {
                 p_a,
                 r_a: acc.r_a / acc.w,

@@ -146,6 +146,22 @@ fn two_patches_are_found_and_representatives_average_them() {
     .unwrap();
     let mut reps = ContactSet::new();
     c.cluster(&contacts, DELTA_M, &mut reps).unwrap();
+    // Each representative's weight is its patch's: 10 contacts of 2δ, and 10 of δ.
+    let weights = c.representative_weights();
+    assert_eq!(weights.len(), 2);
+    let by_x: Vec<(Real, Real)> = reps
+        .iter()
+        .map(|r| r.p_a.x)
+        .zip(weights.iter().copied())
+        .collect();
+    for (x, w) in by_x {
+        let expected = if x < 0.05 {
+            20.0 * DELTA_M
+        } else {
+            10.0 * DELTA_M
+        };
+        approx::assert_relative_eq!(w, expected, max_relative = 1e-12);
+    }
     let mut reps: Vec<Contact> = reps.iter().copied().collect();
     reps.sort_by(|a, b| a.p_a.x.total_cmp(&b.p_a.x));
     approx::assert_relative_eq!(reps[0].p_a.x, 4.5e-3, epsilon = 1e-12);

@@ -76,6 +76,9 @@ pub struct Frame {
     pub t: Real,
     /// Tool pose (its body frame), `[x, y, z, qw, qx, qy, qz]`.
     pub tool: [Real; 7],
+    /// The tool pose at which the coupling would be at rest, given the handle and the grasp:
+    /// where the device puts the tool (the viewer's ghost).
+    pub ghost: [Real; 7],
     /// Device handle pose.
     pub device: [Real; 7],
     /// Where the coupling holds the tool (world, m): the handle's target point.
@@ -116,6 +119,8 @@ pub struct UpdateRecord {
     pub raw: Vec<ContactRecord>,
     /// The cluster representatives.
     pub representatives: Vec<ContactRecord>,
+    /// Each representative's weight (m): the sum of its raw contacts' weights `d_i + δ`.
+    pub representative_weights_m: Vec<Real>,
     /// Deepest penetration (m).
     pub max_penetration_m: Real,
 }
@@ -135,6 +140,7 @@ impl Frame {
             t: t_s,
             tool: pose_array(&tool.pose()),
             device: pose_array(&device.pose),
+            ghost: pose_array(&coupling.tool_at_handle().pose()),
             grasp_m: grasp.into(),
             force_n: w.force.into(),
             torque_nm: w.torque.into(),
@@ -153,6 +159,7 @@ impl UpdateRecord {
         update: &ContactUpdate,
         raw: &ContactSet,
         representatives: &ContactSet,
+        representative_weights_m: &[Real],
         query_time_s: Real,
         threshold: Real,
         cap: usize,
@@ -170,6 +177,7 @@ impl UpdateRecord {
             raw_contact_count: update.raw_contact_count,
             raw: scratch.iter().map(contact_record).collect(),
             representatives: representatives.iter().map(contact_record).collect(),
+            representative_weights_m: representative_weights_m.to_vec(),
             max_penetration_m: update.max_penetration_m,
         }
     }
@@ -264,7 +272,9 @@ pub trait RunObserver<I, D> {
     /// After every haptic step, at time `t_s`.
     fn haptic_step(&mut self, t_s: Real, haptic: &HapticStage<I, D>);
     /// After every contact query, at its time `t_s`: the update, the raw contacts and the
-    /// representatives it came from, the query's wall time and when it takes effect.
+    /// representatives it came from (with their weights, m), the query's wall time and when it
+    /// takes effect.
+    #[allow(clippy::too_many_arguments)]
     fn contact_update(
         &mut self,
         t_s: Real,
@@ -272,6 +282,7 @@ pub trait RunObserver<I, D> {
         update: &ContactUpdate,
         raw: &ContactSet,
         representatives: &ContactSet,
+        representative_weights_m: &[Real],
         query_time_s: Real,
     );
 }
@@ -281,7 +292,10 @@ pub trait RunObserver<I, D> {
 pub struct RunRecorder<W: Write> {
     out: W,
     frame_period_s: Real,
-    next_frame_s: Real,
+    /// The first step's time (s): the origin of the frame grid.
+    first_frame_s: Option<Real>,
+    /// The index of the next frame on the grid `first + k · frame_period_s`.
+    next_frame: u64,
     contact_cap: usize,
     threshold: Real,
     error: Option<std::io::Error>,
@@ -299,7 +313,8 @@ impl<W: Write> RunRecorder<W> {
         Ok(Self {
             out,
             frame_period_s: 1.0 / header.frame_rate_hz.max(1e-9),
-            next_frame_s: 0.0,
+            first_frame_s: None,
+            next_frame: 0,
             contact_cap: header.contact_cap,
             threshold,
             error: None,
@@ -362,10 +377,15 @@ impl<W: Write, I: haptic_core::Integrator, D: haptic_core::Device> RunObserver<I
     for RunRecorder<W>
 {
     fn haptic_step(&mut self, t_s: Real, haptic: &HapticStage<I, D>) {
-        if t_s + 1e-9 < self.next_frame_s {
+        // Frames on the fixed grid `first + k · period` (the first step at or after each grid
+        // time), so that decimation does not drift when the period is not a whole number of
+        // haptic steps.
+        let first = *self.first_frame_s.get_or_insert(t_s);
+        let t = t_s - first + 1e-9;
+        if t < self.next_frame as Real * self.frame_period_s {
             return;
         }
-        self.next_frame_s = t_s + self.frame_period_s;
+        self.next_frame = (t / self.frame_period_s).floor() as u64 + 1;
         self.write_frame(&Frame::of(t_s, haptic));
     }
 
@@ -376,6 +396,7 @@ impl<W: Write, I: haptic_core::Integrator, D: haptic_core::Device> RunObserver<I
         update: &ContactUpdate,
         raw: &ContactSet,
         representatives: &ContactSet,
+        representative_weights_m: &[Real],
         query_time_s: Real,
     ) {
         let mut scratch = std::mem::take(&mut self.scratch);
@@ -385,6 +406,7 @@ impl<W: Write, I: haptic_core::Integrator, D: haptic_core::Device> RunObserver<I
             update,
             raw,
             representatives,
+            representative_weights_m,
             query_time_s,
             self.threshold,
             self.contact_cap,
@@ -425,11 +447,21 @@ impl RunRecording {
             source,
         };
         let first = match lines.next() {
+            // Bytes that are not UTF-8 (a binary file) are not a recording.
+            Some(Err(e)) if e.kind() == std::io::ErrorKind::InvalidData => {
+                return Err(RecordingError::NotARecording);
+            }
             Some(l) => l.map_err(io)?,
             None => return Err(RecordingError::NotARecording),
         };
-        let probe: serde_json::Value =
-            serde_json::from_str(&first).map_err(|_| RecordingError::NotARecording)?;
+        let probe: serde_json::Value = match serde_json::from_str(&first) {
+            Ok(v) => v,
+            // A header cut short: ours if it starts like one.
+            Err(e) if e.is_eof() && first.contains(&format!("\"{FORMAT}\"")) => {
+                return Err(RecordingError::Truncated { lines: 1 });
+            }
+            Err(_) => return Err(RecordingError::NotARecording),
+        };
         if probe.get("format").and_then(|f| f.as_str()) != Some(FORMAT) {
             return Err(RecordingError::NotARecording);
         }
@@ -450,8 +482,17 @@ impl RunRecording {
         let (mut frames, mut updates) = (Vec::new(), Vec::new());
         let mut count = 1;
         for line in lines {
-            let line = line.map_err(io)?;
             count += 1;
+            let line = match line {
+                Ok(l) => l,
+                Err(e) if e.kind() == std::io::ErrorKind::InvalidData => {
+                    return Err(RecordingError::Malformed {
+                        line: count,
+                        message: "not UTF-8".into(),
+                    });
+                }
+                Err(e) => return Err(io(e)),
+            };
             if line.trim().is_empty() {
                 continue;
             }

@@ -121,6 +121,17 @@ impl<B: CollisionBackend, C: ContactModel> ContactStage<B, C> {
         &self.representatives
     }
 
+    /// The weight (m) of each representative of the last update, in their order: the sum of its
+    /// raw contacts' weights `d_i + δ` (see `haptic_cluster`).
+    pub fn representative_weights(&self) -> &[Real] {
+        // In free space the clusterer is not called: its last weights belong to older contacts.
+        if self.representatives.is_empty() {
+            &[]
+        } else {
+            self.clusterer.representative_weights()
+        }
+    }
+
     /// One contact update at the tool state `tool`, computed at haptic time `time_s`.
     ///
     /// # Errors

@@ -24,6 +24,10 @@ fn header() -> RecordingHeader {
 }
 
 fn recorded() -> Vec<u8> {
+    recorded_at(header())
+}
+
+fn recorded_at(header: RecordingHeader) -> Vec<u8> {
     let mut p = PipelineBuilder::new(
         box_body(),
         Pose::from_position(Vec3::new(0.0, 0.0, HALF_M + 0.01)),
@@ -38,7 +42,7 @@ fn recorded() -> Vec<u8> {
     })
     .build()
     .unwrap();
-    let mut rec = RunRecorder::new(Vec::new(), &header(), 0.0).unwrap();
+    let mut rec = RunRecorder::new(Vec::new(), &header, 0.0).unwrap();
     let summary = p
         .run_virtual_observed(0.5, ContactLatency::FixedRate { rate_hz: 500.0 }, &mut rec)
         .unwrap();
@@ -64,10 +68,46 @@ fn a_recording_reads_back_whole() {
         .count();
     assert!(touching > 100, "{touching} updates with contacts");
     assert!(r.updates.iter().all(|u| u.raw.len() <= DEFAULT_CONTACT_CAP));
+    // Each representative carries its cluster's weight, at least δ·1e-3 per contact.
+    assert!(r.updates.iter().all(
+        |u| u.representative_weights_m.len() == u.representatives.len()
+            && u.representative_weights_m.iter().all(|w| *w > 0.0)
+    ));
+    // The ghost is the tool where the handle puts it: its distance to the tool is the coupling
+    // deviation (the grasp is at the centre of mass), and it is not the tool while the hand
+    // presses.
+    for f in &r.frames {
+        let d = ((0..3)
+            .map(|i| (f.ghost[i] - f.tool[i]).powi(2))
+            .sum::<f64>())
+        .sqrt();
+        assert!(
+            (d - f.deviation_m).abs() < 1e-9,
+            "{d} against {}",
+            f.deviation_m
+        );
+    }
+    assert!(r.frames.iter().any(|f| f.deviation_m > 1e-4));
     assert_eq!(r.summary.haptic_steps, 500);
     // The box sits on the floor at the end.
     let last = r.frames.last().unwrap();
     assert!((last.tool[2] - HALF_M).abs() < 1e-3, "{}", last.tool[2]);
+}
+
+/// A frame rate that is not a divisor of the haptic rate: frames stay on their grid (300 Hz
+/// over 0.5 s gives 150 frames, not one every 4 steps).
+#[test]
+fn decimation_keeps_to_the_frame_rate() {
+    let bytes = recorded_at(RecordingHeader {
+        frame_rate_hz: 300.0,
+        ..header()
+    });
+    let r = RunRecording::from_reader(&bytes[..]).unwrap();
+    assert!(
+        (149..=151).contains(&r.frames.len()),
+        "{} frames",
+        r.frames.len()
+    );
 }
 
 #[test]
@@ -82,6 +122,16 @@ fn foreign_other_version_and_truncated_files_are_typed_errors() {
     assert!(matches!(
         RunRecording::from_reader(&b""[..]),
         Err(RecordingError::NotARecording)
+    ));
+    // A binary file (not UTF-8) is foreign, not an I/O failure.
+    assert!(matches!(
+        RunRecording::from_reader(&[0x89, b'P', b'N', b'G', 0xff, 0xfe, b'\n'][..]),
+        Err(RecordingError::NotARecording)
+    ));
+    // A header cut short is a truncated recording.
+    assert!(matches!(
+        RunRecording::from_reader(&lines[0].as_bytes()[..lines[0].len() / 2]),
+        Err(RecordingError::Truncated { lines: 1 })
     ));
     let other = text.replacen(&format!("\"version\":{VERSION}"), "\"version\":99", 1);
     assert!(matches!(
@@ -140,4 +190,20 @@ fn a_real_time_run_records_in_time_order() {
     assert!(r.frames.windows(2).all(|w| w[0].t < w[1].t));
     assert!(!r.updates.is_empty());
     assert!(r.updates.windows(2).all(|w| w[0].t <= w[1].t));
+    // An update takes effect after the query's tool state was sent, on the same clock, and
+    // well within the run (the box's query takes microseconds).
+    for u in &r.updates {
+        assert!(
+            u.available_t >= u.t,
+            "update at {} available at {}",
+            u.t,
+            u.available_t
+        );
+        assert!(
+            u.available_t - u.t < 0.1,
+            "update at {} available at {}",
+            u.t,
+            u.available_t
+        );
+    }
 }

@@ -224,10 +224,8 @@ where
                     .with_context(|| format!("creating {}", path.display()))?,
             );
             let mut recorder = RunRecorder::new(file, header, parts.config.query.error_threshold)?;
-            let s = pipeline.run_virtual_observed(args.seconds, latency, &mut recorder)?;
-            recorder
-                .finish(&s)
-                .with_context(|| format!("writing {}", path.display()))?;
+            let outcome = pipeline.run_virtual_observed(args.seconds, latency, &mut recorder);
+            let s = crate::recording::finish_recording(outcome, recorder, path)?;
             bar.finish_and_clear();
             println!(
                 "recorded to {} (view it with `cargo xtask view {}`)",
@@ -261,10 +259,8 @@ where
                     .with_context(|| format!("creating {}", path.display()))?,
             );
             let mut recorder = RunRecorder::new(file, header, parts.config.query.error_threshold)?;
-            let s = pipeline.run_realtime_recorded(args.seconds, progress, &mut recorder)?;
-            recorder
-                .finish(&s)
-                .with_context(|| format!("writing {}", path.display()))?;
+            let outcome = pipeline.run_realtime_recorded(args.seconds, progress, &mut recorder);
+            let s = crate::recording::finish_recording(outcome, recorder, path)?;
             println!(
                 "recorded to {} (view it with `cargo xtask view {}`)",
                 path.display(),

@@ -77,8 +77,12 @@ pub fn tick_label(v: f64) -> String {
 
 /// Tick positions of a base-10 log axis over `[lo, hi]`: 1, 2 and 5 times the powers of ten
 /// (1, 2, 3, 5 when the range spans less than a decade and a half; every integer mantissa when
-/// that still gives fewer than three), at least two.
+/// that still gives fewer than three), at least two. None for a range that is not positive and
+/// finite (a log axis has none).
 fn log_ticks(lo: f64, hi: f64) -> Vec<f64> {
+    if !(lo.is_finite() && hi.is_finite() && lo > 0.0 && hi >= lo) {
+        return Vec::new();
+    }
     let within = |mantissas: &[f64]| {
         let mut out = Vec::new();
         let (e0, e1) = (lo.log10().floor() as i32, hi.log10().ceil() as i32);
@@ -240,18 +244,20 @@ pub fn line_chart(path: &Path, chart: &Chart<'_>, series: &[Series]) -> anyhow::
                 .map_err(|e| anyhow::anyhow!("{e}"))?;
         }};
     }
-    let (xt, yt) = (log_ticks(x0, x1), log_ticks(y0, y1));
+    // Log ticks only for log axes (`range` makes their bounds positive).
     match (chart.x_scale, chart.y_scale) {
         (Scale::Linear, Scale::Linear) => draw!(builder.build_cartesian_2d(x0..x1, y0..y1)),
-        (Scale::Linear, Scale::Log) => {
-            draw!(builder.build_cartesian_2d(x0..x1, (y0..y1).log_scale().with_key_points(yt)))
-        }
-        (Scale::Log, Scale::Linear) => {
-            draw!(builder.build_cartesian_2d((x0..x1).log_scale().with_key_points(xt), y0..y1))
-        }
+        (Scale::Linear, Scale::Log) => draw!(builder.build_cartesian_2d(
+            x0..x1,
+            (y0..y1).log_scale().with_key_points(log_ticks(y0, y1))
+        )),
+        (Scale::Log, Scale::Linear) => draw!(builder.build_cartesian_2d(
+            (x0..x1).log_scale().with_key_points(log_ticks(x0, x1)),
+            y0..y1
+        )),
         (Scale::Log, Scale::Log) => draw!(builder.build_cartesian_2d(
-            (x0..x1).log_scale().with_key_points(xt),
-            (y0..y1).log_scale().with_key_points(yt)
+            (x0..x1).log_scale().with_key_points(log_ticks(x0, x1)),
+            (y0..y1).log_scale().with_key_points(log_ticks(y0, y1))
         )),
     }
     root.present().map_err(|e| anyhow::anyhow!("{e}"))?;
@@ -285,6 +291,27 @@ mod tests {
             "{t:?}"
         );
         assert!(log_ticks(0.011, 0.019).len() >= 2);
+        // Not a log range: no ticks, and no endless loop.
+        assert!(log_ticks(0.0, 1.0).is_empty());
+        assert!(log_ticks(-1.0, 1.0).is_empty());
+        assert!(log_ticks(f64::NAN, 1.0).is_empty());
+    }
+
+    /// The numeric `<text>` labels of an SVG with their `x` and `y` attributes.
+    fn numeric_labels(svg: &str) -> Vec<(f64, f64, String)> {
+        let attr = |tag: &str, name: &str| -> Option<f64> {
+            let start = tag.find(&format!(" {name}=\""))? + name.len() + 3;
+            tag[start..].split('"').next()?.parse().ok()
+        };
+        svg.split("<text")
+            .skip(1)
+            .filter_map(|t| {
+                let (tag, rest) = t.split_once('>')?;
+                let text = rest.split('<').next()?.trim();
+                text.parse::<f64>().ok()?;
+                Some((attr(tag, "x")?, attr(tag, "y")?, text.to_owned()))
+            })
+            .collect()
     }
 
     /// Every chart kind holds tick labels on both axes, and none with float noise.
@@ -296,6 +323,7 @@ mod tests {
             (Scale::Linear, Scale::Linear),
             (Scale::Log, Scale::Log),
             (Scale::Linear, Scale::Log),
+            (Scale::Log, Scale::Linear),
         ]
         .into_iter()
         .enumerate()
@@ -317,16 +345,15 @@ mod tests {
             )
             .unwrap();
             let svg = std::fs::read_to_string(&path).unwrap();
-            let texts: Vec<&str> = svg
-                .split("<text")
-                .skip(1)
-                .filter_map(|t| t.split('>').nth(1)?.split('<').next())
-                .collect();
-            let numeric = texts
-                .iter()
-                .filter(|t| t.trim().parse::<f64>().is_ok())
-                .count();
-            assert!(numeric >= 6, "{xs:?}/{ys:?}: tick labels {texts:?}");
+            let labels = numeric_labels(&svg);
+            // The x axis's labels share a row (the lowest one), the y axis's a column (the
+            // leftmost one): at least three on each.
+            let bottom = labels.iter().map(|l| l.1).fold(f64::MIN, f64::max);
+            let left = labels.iter().map(|l| l.0).fold(f64::MAX, f64::min);
+            let on_x = labels.iter().filter(|l| (l.1 - bottom).abs() < 1.0).count();
+            let on_y = labels.iter().filter(|l| (l.0 - left).abs() < 1.0).count();
+            assert!(on_x >= 3, "{xs:?}/{ys:?}: x-axis labels in {labels:?}");
+            assert!(on_y >= 3, "{xs:?}/{ys:?}: y-axis labels in {labels:?}");
             assert!(!svg.contains("99999"), "float noise in {xs:?}/{ys:?}");
         }
     }

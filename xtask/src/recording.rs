@@ -88,3 +88,33 @@ pub fn header(
 pub fn obstacle_placement(pose: &Pose) -> [Real; 7] {
     pose_array(pose)
 }
+
+/// Ends `recorder` with the run's summary whatever the outcome: a failed run's recording ends
+/// with the summary of the run up to the failure (when the error carries one), so that it reads
+/// back and can be viewed. Returns the run's outcome, or the recording's write error.
+pub fn finish_recording<W: std::io::Write>(
+    outcome: Result<haptic_runtime::Summary, haptic_runtime::RuntimeError>,
+    recorder: haptic_runtime::RunRecorder<W>,
+    path: &Path,
+) -> anyhow::Result<haptic_runtime::Summary> {
+    match outcome {
+        Ok(summary) => {
+            recorder
+                .finish(&summary)
+                .map_err(|e| anyhow::anyhow!("writing {}: {e}", path.display()))?;
+            Ok(summary)
+        }
+        Err(e) => {
+            if let Some(summary) = e.summary() {
+                // The run's error is what the user needs; a write error here would hide it.
+                if let Err(w) = recorder.finish(summary) {
+                    eprintln!(
+                        "warning: the recording {} is incomplete: {w}",
+                        path.display()
+                    );
+                }
+            }
+            Err(e.into())
+        }
+    }
+}

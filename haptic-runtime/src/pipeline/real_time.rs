@@ -2,7 +2,7 @@
 //! granted), the contact thread as fast as it can, lock-free buffers between them.
 
 use std::panic::{AssertUnwindSafe, catch_unwind};
-use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
 use std::time::{Duration, Instant};
 
 use haptic_core::{CollisionBackend, ContactModel, Device, Integrator, Real};
@@ -175,7 +175,7 @@ struct UpdateBuffer<'a> {
 }
 
 /// The body of the real-time haptic thread: `steps` periods of `dt`, each against its own
-/// deadline `t0 + (k + 1) dt`, waited for as `wait` says. Stops early when `stop` is raised. Returns a device failure that ended the run,
+/// deadline `t0 + (k + 1) dt` (`t0`: the haptic clock's origin), waited for as `wait` says. Stops early when `stop` is raised. Returns a device failure that ended the run,
 /// and the loop's own duration (s), from its start to the end of its last period.
 fn realtime_haptic_loop<I: Integrator, D: Device>(
     haptic: &mut HapticStage<I, D>,
@@ -183,9 +183,9 @@ fn realtime_haptic_loop<I: Integrator, D: Device>(
     steps: u64,
     dt: Real,
     wait: WaitPlan,
+    t0: Instant,
 ) -> (Option<DeviceFailure>, Real) {
     let live = links.live;
-    let t0 = Instant::now();
     for k in 0..steps {
         if links.stop.load(Ordering::Relaxed) {
             break;
@@ -252,6 +252,7 @@ fn contact_thread_loop<B: CollisionBackend, C: ContactModel>(
     live: &LiveTelemetry,
     stop: &AtomicBool,
     start: Instant,
+    haptic_origin_ns: &AtomicU64,
     mut record: Option<UpdateBuffer<'_>>,
 ) -> ContactStats {
     let mut stats = ContactStats::default();
@@ -268,7 +269,10 @@ fn contact_thread_loop<B: CollisionBackend, C: ContactModel>(
         match catch_unwind(AssertUnwindSafe(|| contact.update(&msg.state, msg.time_s))) {
             Ok(Ok(update)) => {
                 let latency = started.elapsed().as_secs_f64();
-                let now = start.elapsed().as_secs_f64();
+                // On the haptic clock (its origin is set before its first message), so that
+                // an update's time and the query's time compare.
+                let now = start.elapsed().as_secs_f64()
+                    - haptic_origin_ns.load(Ordering::Acquire) as Real * 1e-9;
                 contact_in.write((update, latency));
                 stats.record(&update, latency, now);
                 if let Some(r) = &mut record {
@@ -278,6 +282,7 @@ fn contact_thread_loop<B: CollisionBackend, C: ContactModel>(
                         &update,
                         contact.raw_contacts(),
                         contact.representatives(),
+                        contact.representative_weights(),
                         latency,
                         r.threshold,
                         r.cap,
@@ -410,8 +415,11 @@ where
         let haptic = &mut self.haptic;
         let contact = &mut self.contact;
         let start = Instant::now();
+        // The haptic clock's origin, in ns after `start`.
+        let haptic_origin_ns = AtomicU64::new(0);
         let (outcome, loop_s, contact_stats, granted, notes) = std::thread::scope(|s| {
             let stop = &stop;
+            let haptic_origin_ns = &haptic_origin_ns;
             let _stop_all = RaiseOnDrop(stop);
             let contact_thread = s.spawn(move || {
                 let (_, note) = if scheduling_wanted {
@@ -426,6 +434,7 @@ where
                     live,
                     stop,
                     start,
+                    haptic_origin_ns,
                     update_buffer,
                 );
                 (stats, note)
@@ -446,8 +455,11 @@ where
                 };
                 let wait = WaitPlan::new(granted, Duration::from_secs_f64(dt));
                 let started = Instant::now();
+                let origin_ns =
+                    u64::try_from(started.duration_since(start).as_nanos()).unwrap_or(0);
+                haptic_origin_ns.store(origin_ns, Ordering::Release);
                 let outcome = catch_unwind(AssertUnwindSafe(|| {
-                    realtime_haptic_loop(&mut haptic, &mut links, steps, dt, wait)
+                    realtime_haptic_loop(&mut haptic, &mut links, steps, dt, wait, started)
                 }))
                 .map_err(|payload| panic_message(&*payload));
                 drop(haptic);

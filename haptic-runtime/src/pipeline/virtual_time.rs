@@ -117,6 +117,7 @@ where
                         &update,
                         contact.raw_contacts(),
                         contact.representatives(),
+                        contact.representative_weights(),
                         cost_s,
                     );
                     pending = Some((t, t + delay, update));
@@ -158,6 +159,7 @@ impl<I, D, F: FnMut(Real, &HapticStage<I, D>)> RunObserver<I, D> for StepObserve
         _: &ContactUpdate,
         _: &haptic_core::ContactSet,
         _: &haptic_core::ContactSet,
+        _: &[Real],
         _: Real,
     ) {
     }

@@ -66,6 +66,7 @@ impl<I: Integrator, D: Device> RunObserver<I, D> for Collector<'_> {
         update: &ContactUpdate,
         raw: &ContactSet,
         representatives: &ContactSet,
+        representative_weights_m: &[Real],
         query_time_s: Real,
     ) {
         if let Some(r) = &mut self.recorder {
@@ -76,6 +77,7 @@ impl<I: Integrator, D: Device> RunObserver<I, D> for Collector<'_> {
                 update,
                 raw,
                 representatives,
+                representative_weights_m,
                 query_time_s,
             );
         }
@@ -149,10 +151,11 @@ where
         progress,
         recorder,
     };
-    let summary = pipeline.run_virtual_observed(seconds, latency, &mut collector)?;
-    if let Some(r) = collector.recorder.take() {
-        r.finish(&summary)?;
-    }
+    let outcome = pipeline.run_virtual_observed(seconds, latency, &mut collector);
+    let summary = match (collector.recorder.take(), record) {
+        (Some(r), Some(rec)) => crate::recording::finish_recording(outcome, r, &rec.path)?,
+        _ => outcome?,
+    };
     let (series, first_contact_s) = (collector.series, collector.first_contact_s);
     if let Some(bar) = progress {
         bar.finish();

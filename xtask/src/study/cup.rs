@@ -140,6 +140,11 @@ pub fn run(args: &crate::OutArgs) -> anyhow::Result<()> {
                     vec![
                         ("configuration".to_owned(), c.name.to_owned()),
                         ("integrator".to_owned(), c.integrator.to_owned()),
+                        ("back-end".to_owned(), "lod".to_owned()),
+                        (
+                            "error threshold".to_owned(),
+                            format!("{}", base.config.query.error_threshold),
+                        ),
                         (
                             "contact rate".to_owned(),
                             format!("{CONTACT_HZ} Hz (virtual time)"),
@@ -225,7 +230,7 @@ pub fn run(args: &crate::OutArgs) -> anyhow::Result<()> {
     }
     for r in &records {
         let page = r.path.with_extension("html");
-        crate::view::write_page(&r.path, &page)?;
+        crate::view::write_page(&r.path, &page, None)?;
         println!("replay: {}", page.display());
     }
     write_json(

@@ -225,6 +225,8 @@ pub fn run(args: &crate::OutArgs) -> anyhow::Result<()> {
                 header: crate::recording::header(
                     "jaws",
                     vec![
+                        ("integrator".to_owned(), "backward_euler".to_owned()),
+                        ("back-end".to_owned(), "lod".to_owned()),
                         (
                             "error threshold".to_owned(),
                             format!("{} %", threshold * 100.0),
@@ -271,7 +273,7 @@ pub fn run(args: &crate::OutArgs) -> anyhow::Result<()> {
                 Some(&record),
             )?;
             let page = record.path.with_extension("html");
-            let bytes = crate::view::write_page(&record.path, &page)?;
+            let bytes = crate::view::write_page(&record.path, &page, None)?;
             println!("replay: {} ({:.1} MB)", page.display(), bytes as f64 / 1e6);
             pen.push(Series::new(
                 name.clone(),

@@ -57,6 +57,7 @@ impl<I: Integrator, D: Device> RunObserver<I, D> for Sampler {
         _: &ContactUpdate,
         _: &ContactSet,
         _: &ContactSet,
+        _: &[Real],
         query_time_s: Real,
     ) {
         self.contact_s += query_time_s;
