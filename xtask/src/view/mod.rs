@@ -380,6 +380,25 @@ mod tests {
     }
 
     #[test]
+    fn a_recording_without_frames_gets_no_page() {
+        let dir = std::env::temp_dir().join(format!("haptic-view-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        let rec = dir.join("empty.rec");
+        let header = crate::recording::header("empty", Vec::new(), Vec::new(), 1000.0, 1000.0);
+        let recorder =
+            haptic_runtime::RunRecorder::new(std::fs::File::create(&rec).unwrap(), &header, 0.0)
+                .unwrap();
+        recorder
+            .finish(&haptic_runtime::Summary::default())
+            .unwrap();
+        let err = write_page(&rec, &dir.join("empty.html"), None).unwrap_err();
+        assert!(err.to_string().contains("no frames"), "{err}");
+        assert!(!dir.join("empty.html").exists());
+        let err = write_page(&rec, &dir.join("empty.html"), Some(0.0)).unwrap_err();
+        assert!(err.to_string().contains("no frames"), "{err}");
+    }
+
+    #[test]
     fn base64_matches_rfc_4648() {
         assert_eq!(base64(b""), "");
         assert_eq!(base64(b"f"), "Zg==");
