@@ -140,7 +140,7 @@ pub struct LiveTelemetry {
 }
 
 /// A copy of the live counters.
-#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Default)]
 pub struct Snapshot {
     /// Haptic steps done.
     pub haptic_steps: u64,
@@ -263,4 +263,67 @@ pub struct Summary {
     pub realtime_scheduling_granted: bool,
     /// What the OS allowed for thread priority and affinity, in words.
     pub scheduling: String,
+}
+
+/// The summary as `cargo xtask demo` prints it: rates and step times of both loops, contacts,
+/// forces, safety counters, scheduling (real time) and incidents, one topic a line.
+impl std::fmt::Display for Summary {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        let s = self;
+        writeln!(f, "--- {} run, {:.2} s ---", s.mode, s.duration_s)?;
+        writeln!(
+            f,
+            "haptic loop   {:>8.0} Hz   step p50 {:.1} µs, p99 {:.1} µs, p99.9 {:.1} µs, max {:.1} µs; {} deadline misses",
+            s.haptic_rate_hz,
+            s.step_p50_s * 1e6,
+            s.step_p99_s * 1e6,
+            s.step_p999_s * 1e6,
+            s.step_max_s * 1e6,
+            s.deadline_misses
+        )?;
+        writeln!(
+            f,
+            "contact loop  {:>8.0} Hz   latency p50 {:.2} ms, max {:.2} ms; {} updates, {} in free space",
+            s.contact_rate_hz,
+            s.contact_latency_p50_s * 1e3,
+            s.contact_latency_max_s * 1e3,
+            s.contact_updates,
+            s.broad_phase_only_queries
+        )?;
+        writeln!(
+            f,
+            "contacts      {} raw at most, {} clusters at most; max penetration {:.3} mm",
+            s.raw_contact_count_max,
+            s.cluster_count_max,
+            s.max_penetration_m * 1e3
+        )?;
+        writeln!(
+            f,
+            "forces        max {:.2} N sent, {} saturation events; max coupling deviation {:.2} mm",
+            s.max_force_n,
+            s.saturation_events,
+            s.max_coupling_deviation_m * 1e3
+        )?;
+        writeln!(
+            f,
+            "safety        {} zero-force steps (NaN or failed solve), {} solver failures, {} contact errors",
+            s.zero_force_steps, s.solver_failures, s.contact_errors
+        )?;
+        if s.mode == RunMode::RealTime {
+            writeln!(
+                f,
+                "scheduling    real-time scheduling {}; {}",
+                if s.realtime_scheduling_granted {
+                    "granted"
+                } else {
+                    "NOT granted"
+                },
+                s.scheduling
+            )?;
+        }
+        for i in &s.incidents {
+            writeln!(f, "incident      {i}")?;
+        }
+        Ok(())
+    }
 }

@@ -277,52 +277,5 @@ where
 }
 
 fn print_summary(s: &Summary) {
-    println!("--- {} run, {:.2} s ---", s.mode, s.duration_s);
-    println!(
-        "haptic loop   {:>8.0} Hz   step p50 {:.1} µs, p99 {:.1} µs, p99.9 {:.1} µs, max {:.1} µs; {} deadline misses",
-        s.haptic_rate_hz,
-        s.step_p50_s * 1e6,
-        s.step_p99_s * 1e6,
-        s.step_p999_s * 1e6,
-        s.step_max_s * 1e6,
-        s.deadline_misses
-    );
-    println!(
-        "contact loop  {:>8.0} Hz   latency p50 {:.2} ms, max {:.2} ms; {} updates, {} in free space",
-        s.contact_rate_hz,
-        s.contact_latency_p50_s * 1e3,
-        s.contact_latency_max_s * 1e3,
-        s.contact_updates,
-        s.broad_phase_only_queries
-    );
-    println!(
-        "contacts      {} raw at most, {} clusters at most; max penetration {:.3} mm",
-        s.raw_contact_count_max,
-        s.cluster_count_max,
-        s.max_penetration_m * 1e3
-    );
-    println!(
-        "forces        max {:.2} N sent, {} saturation events; max coupling deviation {:.2} mm",
-        s.max_force_n,
-        s.saturation_events,
-        s.max_coupling_deviation_m * 1e3
-    );
-    println!(
-        "safety        {} zero-force steps (NaN or failed solve), {} solver failures, {} contact errors",
-        s.zero_force_steps, s.solver_failures, s.contact_errors
-    );
-    if s.mode == haptic_runtime::RunMode::RealTime {
-        println!(
-            "scheduling    real-time scheduling {}; {}",
-            if s.realtime_scheduling_granted {
-                "granted"
-            } else {
-                "NOT granted"
-            },
-            s.scheduling
-        );
-    }
-    for i in &s.incidents {
-        println!("incident      {i}");
-    }
+    print!("{s}");
 }

@@ -63,6 +63,38 @@ impl Scene {
         };
         let (mesh, _) = TriMesh::load(&self.tool.mesh, &options(self.tool.scale_m_per_unit))
             .map_err(|e| invalid("tool.mesh", e.to_string()))?;
+        let mut obstacles = Vec::with_capacity(self.obstacles.len());
+        for (i, o) in self.obstacles.iter().enumerate() {
+            let (m, _) = TriMesh::load(&o.mesh, &options(o.scale_m_per_unit))
+                .map_err(|e| invalid(format!("obstacles[{i}].mesh"), e.to_string()))?;
+            obstacles.push(m);
+        }
+        self.assemble_meshes(mesh, obstacles)
+    }
+
+    /// [`Scene::assemble`] with the meshes given (in metres, already scaled) instead of read from
+    /// the files the scene names: the tool mesh in its file's frame, one mesh per obstacle in the
+    /// scene's order (posed by the scene). For scenes built in code.
+    ///
+    /// # Errors
+    /// As [`Scene::assemble`]; [`SceneError::Invalid`] (`obstacles`) when the number of meshes
+    /// is not the number of obstacles.
+    pub fn assemble_meshes(
+        &self,
+        mesh: haptic_collision::TriMesh,
+        obstacle_meshes: Vec<haptic_collision::TriMesh>,
+    ) -> Result<SceneParts, SceneError> {
+        self.validate()?;
+        if obstacle_meshes.len() != self.obstacles.len() {
+            return Err(invalid(
+                "obstacles",
+                format!(
+                    "{} meshes given for {} obstacles",
+                    obstacle_meshes.len(),
+                    self.obstacles.len()
+                ),
+            ));
+        }
         // Inertia is linear in density: compute at 1 kg/m³, then scale to the mass.
         let unit = mesh
             .mass_properties(1.0)
@@ -73,12 +105,11 @@ impl Scene {
         let tool_mesh = mesh
             .translated(&-unit.centre_of_mass_m)
             .map_err(|e| invalid("tool.mesh", e.to_string()))?;
-        let mut obstacles = Vec::with_capacity(self.obstacles.len());
-        for (i, o) in self.obstacles.iter().enumerate() {
-            let (m, _) = TriMesh::load(&o.mesh, &options(o.scale_m_per_unit))
-                .map_err(|e| invalid(format!("obstacles[{i}].mesh"), e.to_string()))?;
-            obstacles.push((m, o.pose.pose()));
-        }
+        let obstacles: Vec<_> = obstacle_meshes
+            .into_iter()
+            .zip(&self.obstacles)
+            .map(|(m, o)| (m, o.pose.pose()))
+            .collect();
         let defaults = haptic_dynamics::CouplingParams::default();
         let coupling = haptic_dynamics::CouplingParams {
             stiffness_n_per_m: self.coupling.stiffness_n_per_m,

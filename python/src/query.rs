@@ -1,0 +1,329 @@
+//! `haptic.Contacts`, `haptic.QueryStats`, `haptic.LodBackend` and `haptic.ParryBackend`:
+//! collision queries whose contacts come back as numpy arrays (no Python object per contact).
+
+use std::time::Instant;
+
+use haptic_collision::{LodBackend, ParryBackend, TriMesh};
+use haptic_core::{CollisionBackend, Contact, ContactSet, Pose, QueryParams, Vec3};
+use numpy::{PyArray1, PyArray2};
+use pyo3::prelude::*;
+
+use crate::convert;
+use crate::errors::{collision, input};
+use crate::mesh::PyMesh;
+
+/// A set of contacts as arrays: `p_a`, `r_a`, `p_b`, `n` `(k, 3)` float64, `depth` `(k,)`
+/// float64 (m; negative within δ, not touching), `feature_a`, `feature_b` `(k,)` uint32 (the
+/// triangle or node that produced each contact; 0xFFFFFFFF for none). Each property is a
+/// fresh copy. Build one from arrays with `Contacts(p_a, r_a, p_b, n, depth)`: normals must be
+/// unit (within 1e-6).
+#[pyclass(module = "haptic", name = "Contacts", frozen)]
+pub struct PyContacts {
+    pub(crate) contacts: Vec<Contact>,
+}
+
+#[pymethods]
+impl PyContacts {
+    #[new]
+    #[pyo3(signature = (p_a, r_a, p_b, n, depth, feature_a = None, feature_b = None))]
+    fn new(
+        p_a: &Bound<'_, PyAny>,
+        r_a: &Bound<'_, PyAny>,
+        p_b: &Bound<'_, PyAny>,
+        n: &Bound<'_, PyAny>,
+        depth: &Bound<'_, PyAny>,
+        feature_a: Option<&Bound<'_, PyAny>>,
+        feature_b: Option<&Bound<'_, PyAny>>,
+    ) -> PyResult<Self> {
+        let p_a = convert::rows::<3>(p_a, "p_a", true)?;
+        let k = p_a.len();
+        let same = |rows: Vec<[f64; 3]>, field: &str| -> PyResult<Vec<[f64; 3]>> {
+            if rows.len() == k {
+                Ok(rows)
+            } else {
+                Err(input(
+                    field,
+                    format!("has {} rows, p_a has {k}", rows.len()),
+                ))
+            }
+        };
+        let r_a = same(convert::rows::<3>(r_a, "r_a", true)?, "r_a")?;
+        let p_b = same(convert::rows::<3>(p_b, "p_b", true)?, "p_b")?;
+        let n = same(convert::rows::<3>(n, "n", true)?, "n")?;
+        let depth = convert::vector(depth, "depth", Some(k))?;
+        let features = |f: Option<&Bound<'_, PyAny>>, field: &str| -> PyResult<Vec<u32>> {
+            match f {
+                None => Ok(vec![haptic_core::NO_FEATURE; k]),
+                Some(f) => convert::vector(f, field, Some(k))?
+                    .into_iter()
+                    .map(|x| {
+                        if x.fract() == 0.0 && (0.0..=f64::from(u32::MAX)).contains(&x) {
+                            Ok(x as u32)
+                        } else {
+                            Err(input(field, format!("holds {x}: indices are uint32")))
+                        }
+                    })
+                    .collect(),
+            }
+        };
+        let fa = features(feature_a, "feature_a")?;
+        let fb = features(feature_b, "feature_b")?;
+        let v = |r: &[f64; 3]| Vec3::new(r[0], r[1], r[2]);
+        let mut contacts = Vec::with_capacity(k);
+        for i in 0..k {
+            let c = Contact::new(v(&p_a[i]), v(&r_a[i]), v(&p_b[i]), v(&n[i]), depth[i])
+                .map_err(|e| input("n", format!("contact {i}: {e}")))?
+                .with_features(fa[i], fb[i]);
+            contacts.push(c);
+        }
+        Ok(Self { contacts })
+    }
+
+    /// Points on the tool, world frame (m).
+    #[getter]
+    fn p_a<'py>(&self, py: Python<'py>) -> Bound<'py, PyArray2<f64>> {
+        convert::array3(py, self.contacts.iter().map(|c| c.p_a))
+    }
+
+    /// Points on the tool, tool body frame (m).
+    #[getter]
+    fn r_a<'py>(&self, py: Python<'py>) -> Bound<'py, PyArray2<f64>> {
+        convert::array3(py, self.contacts.iter().map(|c| c.r_a))
+    }
+
+    /// Points on the obstacle, world frame (m).
+    #[getter]
+    fn p_b<'py>(&self, py: Python<'py>) -> Bound<'py, PyArray2<f64>> {
+        convert::array3(py, self.contacts.iter().map(|c| c.p_b))
+    }
+
+    /// Unit normals, out of the tool.
+    #[getter]
+    fn n<'py>(&self, py: Python<'py>) -> Bound<'py, PyArray2<f64>> {
+        convert::array3(py, self.contacts.iter().map(|c| c.n))
+    }
+
+    /// Penetration depths (m): positive inside, negative (down to −δ) within δ.
+    #[getter]
+    fn depth<'py>(&self, py: Python<'py>) -> Bound<'py, PyArray1<f64>> {
+        convert::array1(py, self.contacts.iter().map(|c| c.depth_m).collect())
+    }
+
+    /// Tool feature of each contact (0xFFFFFFFF: none).
+    #[getter]
+    fn feature_a<'py>(&self, py: Python<'py>) -> Bound<'py, PyArray1<u32>> {
+        convert::array1(py, self.contacts.iter().map(|c| c.feature_a).collect())
+    }
+
+    /// Obstacle feature of each contact (0xFFFFFFFF: none).
+    #[getter]
+    fn feature_b<'py>(&self, py: Python<'py>) -> Bound<'py, PyArray1<u32>> {
+        convert::array1(py, self.contacts.iter().map(|c| c.feature_b).collect())
+    }
+
+    fn __len__(&self) -> usize {
+        self.contacts.len()
+    }
+
+    fn __repr__(&self) -> String {
+        format!("Contacts({} contacts)", self.contacts.len())
+    }
+}
+
+/// What a query did: whether the bounding volumes overlapped at all, how many node and
+/// primitive pairs it tested, and its wall time (s).
+#[pyclass(module = "haptic", name = "QueryStats", frozen, get_all)]
+pub struct PyQueryStats {
+    /// The broad phase found overlapping bounding volumes.
+    broad_phase_hit: bool,
+    /// Hierarchy node pairs tested.
+    node_pairs_tested: u64,
+    /// Primitive (triangle or convex piece) pairs tested.
+    primitive_pairs_tested: u64,
+    /// Wall time of the query (s), measured in Rust.
+    time_s: f64,
+}
+
+#[pymethods]
+impl PyQueryStats {
+    fn __repr__(&self) -> String {
+        format!(
+            "QueryStats(broad_phase_hit={}, node_pairs_tested={}, primitive_pairs_tested={}, time_s={:.3e})",
+            if self.broad_phase_hit {
+                "True"
+            } else {
+                "False"
+            },
+            self.node_pairs_tested,
+            self.primitive_pairs_tested,
+            self.time_s
+        )
+    }
+}
+
+/// `[(Mesh, pose), …]` as the back-ends take them.
+fn obstacles(list: &Bound<'_, PyAny>) -> PyResult<Vec<(TriMesh, Pose)>> {
+    let items: Vec<Bound<'_, PyAny>> = list
+        .try_iter()
+        .map_err(|_| input("obstacles", "must be a list of (Mesh, pose) pairs"))?
+        .collect::<PyResult<_>>()?;
+    let mut out = Vec::with_capacity(items.len());
+    for (i, item) in items.iter().enumerate() {
+        let field = format!("obstacles[{i}]");
+        let (mesh, pose): (PyRef<'_, PyMesh>, Bound<'_, PyAny>) = item
+            .extract()
+            .map_err(|_| input(&field, "must be a (Mesh, pose) pair"))?;
+        out.push((
+            (*mesh.mesh).clone(),
+            convert::pose(&pose, &format!("{field}.pose"))?,
+        ));
+    }
+    Ok(out)
+}
+
+/// Runs one query of `backend` with the GIL released.
+fn query<B: CollisionBackend + Send>(
+    py: Python<'_>,
+    backend: &mut B,
+    scratch: &mut ContactSet,
+    pose: &Bound<'_, PyAny>,
+    delta: f64,
+    threshold: f64,
+) -> PyResult<(PyContacts, PyQueryStats)> {
+    let pose = convert::pose(pose, "pose")?;
+    convert::positive(delta, "delta")?;
+    convert::non_negative(threshold, "threshold")?;
+    let params = QueryParams::new(delta, threshold).map_err(|e| input("delta", e))?;
+    let (result, time_s) = py.detach(|| {
+        let start = Instant::now();
+        let r = backend.query(&pose, &params, scratch);
+        (r, start.elapsed().as_secs_f64())
+    });
+    let stats = result.map_err(|e| collision(&e))?;
+    Ok((
+        PyContacts {
+            contacts: scratch.as_slice().to_vec(),
+        },
+        PyQueryStats {
+            broad_phase_hit: stats.broad_phase_hit,
+            node_pairs_tested: stats.node_pairs_tested,
+            primitive_pairs_tested: stats.primitive_pairs_tested,
+            time_s,
+        },
+    ))
+}
+
+/// The native sensation-preserving multiresolution back-end: `LodBackend(tool, obstacles)`, the
+/// tool mesh in its body frame and `[(Mesh, pose), …]` the obstacles with their world poses.
+/// Building the hierarchies releases the GIL.
+#[pyclass(module = "haptic", name = "LodBackend")]
+pub struct PyLodBackend {
+    pub(crate) backend: LodBackend,
+    scratch: ContactSet,
+}
+
+#[pymethods]
+impl PyLodBackend {
+    #[new]
+    fn new(
+        py: Python<'_>,
+        tool: PyRef<'_, PyMesh>,
+        obstacles: &Bound<'_, PyAny>,
+    ) -> PyResult<Self> {
+        let obstacles = self::obstacles(obstacles)?;
+        let tool = tool.mesh.clone();
+        let backend = py
+            .detach(|| LodBackend::new(&tool, &obstacles))
+            .map_err(|e| collision(&e))?;
+        Ok(Self {
+            backend,
+            scratch: ContactSet::with_capacity(256),
+        })
+    }
+
+    /// The contacts of the tool at `pose` within `delta` (m), at the error `threshold` (a
+    /// fraction of the tool's bounding radius; 0 is exact), and the query's statistics. The GIL
+    /// is released during the query.
+    #[pyo3(signature = (pose, delta, threshold = 0.0))]
+    fn query(
+        &mut self,
+        py: Python<'_>,
+        pose: &Bound<'_, PyAny>,
+        delta: f64,
+        threshold: f64,
+    ) -> PyResult<(PyContacts, PyQueryStats)> {
+        query(
+            py,
+            &mut self.backend,
+            &mut self.scratch,
+            pose,
+            delta,
+            threshold,
+        )
+    }
+
+    /// Nodes in the hierarchies.
+    #[getter]
+    fn node_count(&self) -> usize {
+        self.backend.node_count()
+    }
+
+    /// The tool's bounding radius about its body origin (m): the unit of `threshold`.
+    #[getter]
+    fn tool_bounding_radius_m(&self) -> f64 {
+        self.backend.tool_bounding_radius_m()
+    }
+}
+
+/// The parry3d back-end (exact triangle-mesh contacts; the threshold is ignored), built like
+/// `LodBackend`.
+#[pyclass(module = "haptic", name = "ParryBackend")]
+pub struct PyParryBackend {
+    pub(crate) backend: ParryBackend,
+    scratch: ContactSet,
+}
+
+#[pymethods]
+impl PyParryBackend {
+    #[new]
+    fn new(
+        py: Python<'_>,
+        tool: PyRef<'_, PyMesh>,
+        obstacles: &Bound<'_, PyAny>,
+    ) -> PyResult<Self> {
+        let obstacles = self::obstacles(obstacles)?;
+        let tool = tool.mesh.clone();
+        let backend = py
+            .detach(|| ParryBackend::new(&tool, &obstacles))
+            .map_err(|e| collision(&e))?;
+        Ok(Self {
+            backend,
+            scratch: ContactSet::with_capacity(256),
+        })
+    }
+
+    /// As `LodBackend.query`; `threshold` is accepted and ignored (parry is exact).
+    #[pyo3(signature = (pose, delta, threshold = 0.0))]
+    fn query(
+        &mut self,
+        py: Python<'_>,
+        pose: &Bound<'_, PyAny>,
+        delta: f64,
+        threshold: f64,
+    ) -> PyResult<(PyContacts, PyQueryStats)> {
+        query(
+            py,
+            &mut self.backend,
+            &mut self.scratch,
+            pose,
+            delta,
+            threshold,
+        )
+    }
+
+    /// The tool's bounding radius about its body origin (m).
+    #[getter]
+    fn tool_bounding_radius_m(&self) -> f64 {
+        self.backend.tool_bounding_radius_m()
+    }
+}
