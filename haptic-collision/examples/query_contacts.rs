@@ -125,7 +125,10 @@ fn main() -> Result<(), Error> {
             .strip_prefix("--")
             .ok_or_else(|| format!("unexpected argument {flag}"))?
             .to_owned();
-        if key == "time" {
+        // `--flag=value` too, for values that start with a minus sign.
+        if let Some((k, v)) = key.split_once('=') {
+            args.insert(k.to_owned(), v.to_owned());
+        } else if key == "time" {
             args.insert(key, String::new());
         } else {
             let value = it.next().ok_or_else(|| format!("{flag} needs a value"))?;

@@ -114,6 +114,48 @@ impl AtomicReal {
     }
 }
 
+/// A pose shared by one writer (the haptic thread) with readers, lock-free: a sequence lock. The
+/// writer never waits; a reader retries while a write is under way, so it never sees half of
+/// one pose and half of another.
+#[derive(Debug, Default)]
+pub struct AtomicPose {
+    seq: AtomicU64,
+    values: [AtomicU64; 7],
+}
+
+impl AtomicPose {
+    /// Stores `[x, y, z, qw, qx, qy, qz]` (one writer only).
+    #[inline]
+    pub fn store(&self, pose: &[Real; 7]) {
+        let seq = self.seq.load(Ordering::Relaxed);
+        self.seq.store(seq.wrapping_add(1), Ordering::Relaxed);
+        std::sync::atomic::fence(Ordering::Release);
+        for (cell, v) in self.values.iter().zip(pose) {
+            cell.store(v.to_bits(), Ordering::Relaxed);
+        }
+        self.seq.store(seq.wrapping_add(2), Ordering::Release);
+    }
+
+    /// Loads the last pose stored whole (all zeros before the first).
+    pub fn load(&self) -> [Real; 7] {
+        loop {
+            let before = self.seq.load(Ordering::Acquire);
+            if before % 2 == 1 {
+                std::hint::spin_loop();
+                continue;
+            }
+            let mut out = [0.0; 7];
+            for (o, cell) in out.iter_mut().zip(&self.values) {
+                *o = Real::from_bits(cell.load(Ordering::Relaxed));
+            }
+            std::sync::atomic::fence(Ordering::Acquire);
+            if self.seq.load(Ordering::Relaxed) == before {
+                return out;
+            }
+        }
+    }
+}
+
 /// Live counters, readable from any thread while the pipeline runs.
 #[derive(Debug, Default)]
 pub struct LiveTelemetry {
@@ -137,6 +179,8 @@ pub struct LiveTelemetry {
     pub zero_force_steps: AtomicU64,
     /// Set when the contact thread has died.
     pub contact_thread_dead: AtomicBool,
+    /// The tool's pose after the latest haptic step, `[x, y, z, qw, qx, qy, qz]`.
+    pub tool_pose: AtomicPose,
 }
 
 /// A copy of the live counters.
@@ -160,6 +204,9 @@ pub struct Snapshot {
     pub deadline_misses: u64,
     /// Steps that sent zero force (a NaN reading or state, or a failed solve) so far.
     pub zero_force_steps: u64,
+    /// The tool's pose after the latest haptic step, `[x, y, z, qw, qx, qy, qz]` (zeros before
+    /// the first).
+    pub tool_pose: [Real; 7],
 }
 
 impl LiveTelemetry {
@@ -175,6 +222,7 @@ impl LiveTelemetry {
             cluster_count: self.cluster_count.load(Ordering::Relaxed),
             deadline_misses: self.deadline_misses.load(Ordering::Relaxed),
             zero_force_steps: self.zero_force_steps.load(Ordering::Relaxed),
+            tool_pose: self.tool_pose.load(),
         }
     }
 }
@@ -325,5 +373,32 @@ impl std::fmt::Display for Summary {
             writeln!(f, "incident      {i}")?;
         }
         Ok(())
+    }
+}
+
+#[cfg(test)]
+mod pose_cell_tests {
+    use super::*;
+
+    /// A reader racing one writer sees whole poses only: every value of a pose read equal.
+    #[test]
+    fn a_pose_is_never_read_half_written() {
+        let cell = std::sync::Arc::new(AtomicPose::default());
+        let writer = {
+            let cell = cell.clone();
+            std::thread::spawn(move || {
+                for k in 1..=200_000u32 {
+                    cell.store(&[Real::from(k); 7]);
+                }
+            })
+        };
+        let mut reads = 0;
+        while !writer.is_finished() || reads == 0 {
+            let p = cell.load();
+            assert!(p.iter().all(|v| *v == p[0]), "torn read {p:?}");
+            reads += 1;
+        }
+        writer.join().unwrap();
+        assert_eq!(cell.load(), [200_000.0; 7]);
     }
 }

@@ -102,7 +102,8 @@ pub fn mat3(obj: &Bound<'_, PyAny>, field: &str) -> PyResult<haptic_core::Mat3> 
     Ok(haptic_core::Mat3::from_fn(|i, j| r[i][j]))
 }
 
-/// A pose from `[x, y, z, qw, qx, qy, qz]`: finite, with a unit quaternion (within 1e-6).
+/// A pose from `[x, y, z, qw, qx, qy, qz]`: finite, with a unit quaternion (within 1e-6, then
+/// normalised).
 pub fn pose_from(v: &[f64], field: &str) -> PyResult<Pose> {
     if let Some(bad) = v.iter().find(|x| !x.is_finite()) {
         return Err(input(field, format!("holds {bad}: a pose must be finite")));
@@ -115,11 +116,22 @@ pub fn pose_from(v: &[f64], field: &str) -> PyResult<Pose> {
             format!("the quaternion [qw, qx, qy, qz] has norm {norm}, not 1"),
         ));
     }
-    Pose::new(Vec3::new(v[0], v[1], v[2]), q).map_err(|e| input(field, e))
+    // Within 1e-6 of unit (single-precision sources): normalised here, as the core checks 1e-9.
+    Pose::new(Vec3::new(v[0], v[1], v[2]), q / norm).map_err(|e| input(field, e))
 }
 
 /// A pose argument (7 floats).
 pub fn pose(obj: &Bound<'_, PyAny>, field: &str) -> PyResult<Pose> {
+    // The common case, a float64 array of 7, without a call into numpy.
+    if let Ok(a) = obj.cast::<PyArray1<f64>>() {
+        if let Ok(ro) = a.try_readonly() {
+            if let Ok(v) = ro.as_slice() {
+                if v.len() == 7 {
+                    return pose_from(v, field);
+                }
+            }
+        }
+    }
     let arr = as_f64(obj, field)?;
     if arr.shape() != [7] {
         return Err(input(

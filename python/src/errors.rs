@@ -164,11 +164,16 @@ pub fn input(field: &str, message: impl std::fmt::Display) -> PyErr {
 
 /// The field a `haptic_core::CoreError` names, if it names one.
 fn core_field(e: &haptic_core::CoreError) -> Option<String> {
-    // The check helpers name fields by path in their message: "`coupling.stiffness_n_per_m` …".
-    let text = e.to_string();
-    let start = text.find('`')? + 1;
-    let end = text[start..].find('`')? + start;
-    Some(text[start..end].to_owned())
+    use haptic_core::CoreError as C;
+    match e {
+        C::OutOfRange { what, .. } | C::NonFinite { what } => Some((*what).to_owned()),
+        C::NonPositiveMass { .. } => Some("mass_kg".to_owned()),
+        C::InertiaNotSymmetric { .. }
+        | C::InertiaNotPositiveDefinite { .. }
+        | C::InertiaNotPhysical => Some("inertia_kg_m2".to_owned()),
+        C::BadNormal { .. } => Some("n".to_owned()),
+        _ => None,
+    }
 }
 
 /// A core error (bad parameter, non-finite value) as an exception of `class`.

@@ -1,5 +1,5 @@
 //! `haptic._haptic`: the extension module behind the `haptic` Python package (see
-//! `python/README.md` for the API and `python/haptic/__init__.pyi` for its types). Meshes,
+//! `python/README.md` for the API and `python/python/haptic/__init__.pyi` for its types). Meshes,
 //! back-ends, clustering, the penalty model, scenes, virtual- and real-time runs, and a force
 //! server for a simulator that runs slower than the hand. Arrays are numpy's; every error is an
 //! exception under `haptic.HapticError` naming what was wrong; long calls release the GIL.

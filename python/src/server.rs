@@ -152,6 +152,14 @@ impl PyForceServer {
         ))
     }
 
+    /// The virtual tool's pose `(7,)` as of the last live update (ten a second; all zeros
+    /// before the first).
+    fn tool_pose<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyArray1<f64>>> {
+        let running = self.running.as_ref().ok_or_else(stopped)?;
+        let s = running.snapshot.lock().map(|s| *s).unwrap_or_default();
+        Ok(convert::array1(py, s.tool_pose.to_vec()))
+    }
+
     /// The handle's pose last set, `(7,)`.
     fn device_pose<'py>(&self, py: Python<'py>) -> Bound<'py, PyArray1<f64>> {
         convert::array1(py, convert::pose_array(&self.last_pose).to_vec())

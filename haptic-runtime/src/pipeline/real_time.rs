@@ -223,6 +223,8 @@ fn realtime_haptic_loop<I: Integrator, D: Device>(
         }
         live.haptic_steps.store(k + 1, Ordering::Relaxed);
         live.time_s.store(now_s);
+        live.tool_pose
+            .store(&crate::recording::pose_array(&haptic.tool().pose()));
         live.max_force_n.store(haptic.stats.max_force_n);
         live.zero_force_steps
             .store(haptic.stats.zero_force_steps, Ordering::Relaxed);

@@ -1,0 +1,364 @@
+"""Collision queries from Python: the same contacts, representatives and penalty wrench as the
+Rust reference program on the same inputs, bit for bit; contacts as numpy arrays; every bad
+argument an exception."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+import haptic
+
+IDENTITY = np.array([0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0])
+NO_FEATURE = 0xFFFFFFFF
+
+# The jaws scene's contact parameters (xtask/scenes/jaws.toml): δ = 1 mm, K = 5, k_c = 5 kN/m,
+# a 10 g tool; the penalty damping is the library default (2 N s/m).
+DELTA = 1e-3
+CLUSTERS = 5
+STIFFNESS = 5000.0
+DAMPING = 2.0
+MASS = 0.01
+
+
+def rotation_pose(position, axis, angle) -> np.ndarray:
+    axis = np.asarray(axis, dtype=np.float64)
+    axis = axis / np.linalg.norm(axis)
+    s = math.sin(angle / 2)
+    return np.array([*position, math.cos(angle / 2), *(s * axis)])
+
+
+def rotation_matrix(q) -> np.ndarray:
+    w, x, y, z = q
+    return np.array([
+        [1 - 2 * (y * y + z * z), 2 * (x * y - w * z), 2 * (x * z + w * y)],
+        [2 * (x * y + w * z), 1 - 2 * (x * x + z * z), 2 * (y * z - w * x)],
+        [2 * (x * z - w * y), 2 * (y * z + w * x), 1 - 2 * (x * x + y * y)],
+    ])
+
+
+# The upper jaw as stored sits on the lower one in occlusion: the identity touches. The second
+# pose slides it 0.2 mm, lifts it 0.1 mm and turns it by 0.1° about a skew axis.
+POSES = {
+    "occlusion": IDENTITY,
+    "slid": rotation_pose([2e-4, -1e-4, 1e-4], [0.2, 1.0, 0.1], math.radians(0.1)),
+}
+
+
+def pose_arg(pose) -> str:
+    return ",".join(repr(float(v)) for v in pose)
+
+
+def reference_args(mesh_paths, pose, threshold, backend) -> list[str]:
+    return [
+        "--tool", str(mesh_paths["jaw_upper"]), "--tool-scale", "0.001",
+        "--obstacle", str(mesh_paths["jaw_lower"]), "--obstacle-scale", "0.001",
+        f"--obstacle-pose={pose_arg(IDENTITY)}",
+        f"--pose={pose_arg(pose)}",
+        f"--delta={DELTA!r}", f"--threshold={float(threshold)!r}",
+        "--backend", backend,
+        "--clusters", str(CLUSTERS),
+        f"--stiffness={STIFFNESS!r}", f"--damping={DAMPING!r}", f"--mass={MASS!r}",
+    ]
+
+
+def python_pipeline(backend, tool: haptic.Mesh, pose, threshold) -> dict:
+    """What the reference program does, through the Python API."""
+    contacts, stats = backend.query(pose, delta=DELTA, threshold=threshold)
+    clusterer = haptic.Clusterer(max_clusters=CLUSTERS, warm_start=True)
+    reps = clusterer.cluster(contacts, delta=DELTA)
+    volume = tool.mass_properties(1.0).volume_m3
+    body = haptic.RigidBody.from_mass_properties(
+        tool.mass_properties(density_kg_per_m3=MASS / volume)
+    )
+    model = haptic.PenaltyModel(
+        stiffness_n_per_m=STIFFNESS, damping_ns_per_m=DAMPING, delta_m=DELTA
+    )
+    force, torque = model.wrench(body, pose, reps)
+    return {
+        "contacts": contacts,
+        "stats": stats,
+        "representatives": reps,
+        "representative_weights": clusterer.representative_weights,
+        "force": force,
+        "torque": torque,
+    }
+
+
+CONTACT_KEYS = ("p_a", "r_a", "p_b", "n", "depth", "feature_a", "feature_b")
+
+
+def assert_same_contacts(ours: haptic.Contacts, theirs: dict, what: str) -> None:
+    assert len(ours) == len(theirs["depth"]), f"{what}: {len(ours)} contacts in Python, " \
+        f"{len(theirs['depth'])} in Rust"
+    for key in CONTACT_KEYS:
+        mine = getattr(ours, key)
+        assert mine.dtype == theirs[key].dtype, f"{what}.{key}: dtype {mine.dtype}"
+        assert mine.shape == theirs[key].shape, f"{what}.{key}: shape {mine.shape}"
+        if not np.array_equal(mine, theirs[key]):
+            bad = np.argwhere(mine != theirs[key])
+            raise AssertionError(
+                f"{what}.{key} differs from Rust at {len(bad)} places, first {bad[0].tolist()}: "
+                f"{mine[tuple(bad[0])]!r} against {theirs[key][tuple(bad[0])]!r}"
+            )
+
+
+@pytest.fixture(scope="module")
+def jaws_parry(jaws_meshes) -> haptic.ParryBackend:
+    upper, lower = jaws_meshes
+    return haptic.ParryBackend(upper, [(lower, IDENTITY)])
+
+
+@pytest.mark.parametrize(
+    "pose_name, threshold",
+    [("occlusion", 0.025), ("occlusion", 0.0), ("slid", 0.025)],
+)
+def test_lod_query_matches_rust_bit_for_bit(
+    jaws_meshes, jaws_lod, mesh_paths, rust_reference, pose_name, threshold
+):
+    pose = POSES[pose_name]
+    upper, _ = jaws_meshes
+    ours = python_pipeline(jaws_lod, upper, pose, threshold)
+    assert len(ours["contacts"]) > 0, (
+        f"no contact of the jaws at the {pose_name} pose within δ = {DELTA} m: the pose does "
+        "not touch, pick another"
+    )
+    theirs = rust_reference(*reference_args(mesh_paths, pose, threshold, "lod"))
+    assert_same_contacts(ours["contacts"], theirs, "contacts")
+    assert_same_contacts(ours["representatives"], theirs["representatives"], "representatives")
+    assert np.array_equal(ours["representative_weights"], theirs["representative_weights"])
+    assert np.array_equal(ours["force"], theirs["force"]), (ours["force"], theirs["force"])
+    assert np.array_equal(ours["torque"], theirs["torque"]), (ours["torque"], theirs["torque"])
+    # In occlusion the lower jaw pushes the upper one up and away: a real force.
+    assert np.linalg.norm(ours["force"]) > 0
+
+
+def test_parry_query_matches_rust_bit_for_bit(jaws_meshes, jaws_parry, mesh_paths, rust_reference):
+    upper, _ = jaws_meshes
+    pose = POSES["occlusion"]
+    ours = python_pipeline(jaws_parry, upper, pose, 0.0)
+    assert len(ours["contacts"]) > 0, "parry finds no contact of the jaws in occlusion"
+    theirs = rust_reference(*reference_args(mesh_paths, pose, 0.0, "parry"))
+    assert_same_contacts(ours["contacts"], theirs, "contacts")
+    assert_same_contacts(ours["representatives"], theirs["representatives"], "representatives")
+    assert np.array_equal(ours["representative_weights"], theirs["representative_weights"])
+    assert np.array_equal(ours["force"], theirs["force"])
+    assert np.array_equal(ours["torque"], theirs["torque"])
+
+
+def test_repeated_queries_are_identical(jaws_lod):
+    a, _ = jaws_lod.query(POSES["slid"], delta=DELTA, threshold=0.025)
+    jaws_lod.query(POSES["occlusion"], delta=DELTA, threshold=0.0)
+    b, _ = jaws_lod.query(POSES["slid"], delta=DELTA, threshold=0.025)
+    for key in CONTACT_KEYS:
+        assert np.array_equal(getattr(a, key), getattr(b, key)), key
+
+
+def test_coarser_threshold_gives_no_more_contacts(jaws_lod):
+    exact, exact_stats = jaws_lod.query(IDENTITY, delta=DELTA, threshold=0.0)
+    coarse, coarse_stats = jaws_lod.query(IDENTITY, delta=DELTA, threshold=0.025)
+    assert len(exact) > 0
+    assert 0 < len(coarse) <= len(exact)
+    assert exact_stats.broad_phase_hit and coarse_stats.broad_phase_hit
+    assert exact_stats.primitive_pairs_tested >= coarse_stats.primitive_pairs_tested
+
+
+def test_contacts_are_numpy_arrays(jaws_lod):
+    pose = POSES["slid"]
+    contacts, stats = jaws_lod.query(pose, delta=DELTA, threshold=0.025)
+    k = len(contacts)
+    assert k > 0
+    for key in ("p_a", "r_a", "p_b", "n"):
+        a = getattr(contacts, key)
+        assert type(a) is np.ndarray, key
+        assert a.dtype == np.float64 and a.shape == (k, 3), (key, a.dtype, a.shape)
+        assert np.all(np.isfinite(a)), key
+    for key, dtype in (("depth", np.float64), ("feature_a", np.uint32), ("feature_b", np.uint32)):
+        a = getattr(contacts, key)
+        assert type(a) is np.ndarray, key
+        assert a.dtype == dtype and a.shape == (k,), (key, a.dtype, a.shape)
+    # What a contact means: unit normals, depths down to -δ, p_a the body point r_a placed at
+    # the pose, p_b on the far side of the normal by the depth.
+    assert np.allclose(np.linalg.norm(contacts.n, axis=1), 1.0, rtol=0, atol=1e-6)
+    assert np.all(contacts.depth >= -DELTA * (1 + 1e-9))
+    placed = pose[:3] + contacts.r_a @ rotation_matrix(pose[3:]).T
+    assert np.allclose(contacts.p_a, placed, rtol=0, atol=1e-12)
+    # Fresh copies: changing one changes nothing.
+    p_a = contacts.p_a
+    p_a[:] = 0.0
+    assert not np.array_equal(contacts.p_a, p_a)
+    # The statistics.
+    assert isinstance(stats, haptic.QueryStats)
+    assert stats.broad_phase_hit is True
+    assert stats.node_pairs_tested > 0 and stats.primitive_pairs_tested > 0
+    assert 0 < stats.time_s < 10
+
+
+def test_free_space_query(jaws_lod):
+    far = IDENTITY.copy()
+    far[2] = 0.5
+    contacts, stats = jaws_lod.query(far, delta=DELTA, threshold=0.025)
+    assert len(contacts) == 0
+    assert stats.broad_phase_hit is False
+    assert contacts.p_a.shape == (0, 3) and contacts.p_a.dtype == np.float64
+    assert contacts.depth.shape == (0,)
+    assert contacts.feature_a.shape == (0,) and contacts.feature_a.dtype == np.uint32
+
+
+def test_backend_properties(jaws_meshes, jaws_lod):
+    upper, _ = jaws_meshes
+    assert jaws_lod.node_count > 0
+    radius = jaws_lod.tool_bounding_radius_m
+    assert radius >= np.linalg.norm(upper.vertices, axis=1).max() * (1 - 1e-12)
+
+
+# --- Contacts from arrays ---------------------------------------------------------------------
+
+
+def contact_arrays(k: int, seed: int = 1):
+    rng = np.random.default_rng(seed)
+    p_a = rng.normal(size=(k, 3)) * 0.01
+    r_a = rng.normal(size=(k, 3)) * 0.01
+    n = rng.normal(size=(k, 3))
+    n /= np.linalg.norm(n, axis=1, keepdims=True)
+    depth = rng.uniform(-1e-3, 1e-3, size=k)
+    p_b = p_a - depth[:, None] * n
+    return p_a, r_a, p_b, n, depth
+
+
+def test_contacts_from_arrays_round_trip():
+    p_a, r_a, p_b, n, depth = contact_arrays(7)
+    c = haptic.Contacts(p_a, r_a, p_b, n, depth)
+    assert len(c) == 7
+    assert np.array_equal(c.p_a, p_a) and np.array_equal(c.r_a, r_a)
+    assert np.array_equal(c.p_b, p_b) and np.array_equal(c.n, n)
+    assert np.array_equal(c.depth, depth)
+    assert np.all(c.feature_a == NO_FEATURE) and np.all(c.feature_b == NO_FEATURE)
+    assert c.feature_a.dtype == np.uint32
+    f = haptic.Contacts(p_a, r_a, p_b, n, depth, feature_a=np.arange(7), feature_b=[3] * 7)
+    assert np.array_equal(f.feature_a, np.arange(7)) and np.all(f.feature_b == 3)
+    empty = haptic.Contacts(np.zeros((0, 3)), np.zeros((0, 3)), np.zeros((0, 3)),
+                            np.zeros((0, 3)), np.zeros(0))
+    assert len(empty) == 0
+
+
+def test_contacts_need_unit_normals():
+    p_a, r_a, p_b, n, depth = contact_arrays(5)
+    long = n.copy()
+    long[3] *= 1.001
+    with pytest.raises(haptic.InputError) as e:
+        haptic.Contacts(p_a, r_a, p_b, long, depth)
+    assert e.value.field == "n"
+    zero = n.copy()
+    zero[0] = 0.0
+    with pytest.raises(haptic.InputError) as e:
+        haptic.Contacts(p_a, r_a, p_b, zero, depth)
+    assert e.value.field == "n"
+    # Within 1e-6 of unit length is accepted.
+    near = n * (1 + 5e-7)
+    assert len(haptic.Contacts(p_a, r_a, p_b, near, depth)) == 5
+
+
+def test_contacts_from_bad_arrays():
+    p_a, r_a, p_b, n, depth = contact_arrays(5)
+    with pytest.raises(haptic.InputError) as e:
+        haptic.Contacts(p_a, r_a[:4], p_b, n, depth)
+    assert e.value.field == "r_a"
+    with pytest.raises(haptic.InputError) as e:
+        haptic.Contacts(p_a, r_a, p_b, n, depth[:4])
+    assert e.value.field == "depth"
+    nan = p_b.copy()
+    nan[2, 1] = np.nan
+    with pytest.raises(haptic.InputError) as e:
+        haptic.Contacts(p_a, r_a, nan, n, depth)
+    assert e.value.field == "p_b"
+    with pytest.raises(haptic.InputError) as e:
+        haptic.Contacts(p_a[:, :2], r_a, p_b, n, depth)
+    assert e.value.field == "p_a"
+    with pytest.raises(haptic.InputError) as e:
+        haptic.Contacts(p_a, r_a, p_b, n, np.full(5, np.inf))
+    assert e.value.field == "depth"
+
+
+# --- bad query arguments ----------------------------------------------------------------------
+
+
+@pytest.mark.parametrize(
+    "pose",
+    [
+        [np.nan, 0, 0, 1, 0, 0, 0],
+        [0, 0, 0, 1, 0, np.nan, 0],
+        [0, np.inf, 0, 1, 0, 0, 0],
+        [0, 0, 0, 1.01, 0, 0, 0],
+        [0, 0, 0, 1, 2e-3, 0, 0],
+        [0, 0, 0, 0, 0, 0, 0],
+        [0, 0, 0, 1, 0, 0],
+        [0, 0, 0, 1, 0, 0, 0, 0],
+        [[0, 0, 0, 1, 0, 0, 0]],
+        ["a", 0, 0, 1, 0, 0, 0],
+    ],
+    ids=["nan-position", "nan-quaternion", "inf", "norm-1.01", "norm-1+2e-6",
+         "zero-quaternion", "six", "eight", "2d", "string"],
+)
+def test_bad_pose_is_an_input_error(jaws_lod, pose):
+    with pytest.raises(haptic.InputError) as e:
+        jaws_lod.query(pose, delta=DELTA, threshold=0.025)
+    assert e.value.field == "pose"
+
+
+def test_nearly_unit_quaternion_is_accepted(jaws_lod):
+    # |q| - 1 = 5e-7: within the 1e-6 tolerance.
+    pose = np.array([0, 0, 0, 1, 1e-3, 0, 0], dtype=np.float64)
+    assert abs(np.linalg.norm(pose[3:]) - 1) < 1e-6
+    contacts, stats = jaws_lod.query(pose, delta=DELTA, threshold=0.025)
+    assert stats.broad_phase_hit and len(contacts) > 0
+
+
+@pytest.mark.parametrize("delta", [0.0, -1e-3, float("nan"), float("inf")])
+def test_bad_delta_is_an_input_error(jaws_lod, delta):
+    with pytest.raises(haptic.InputError) as e:
+        jaws_lod.query(IDENTITY, delta=delta, threshold=0.025)
+    assert e.value.field == "delta"
+
+
+@pytest.mark.parametrize("threshold", [-0.01, float("nan")])
+def test_bad_threshold_is_an_input_error(jaws_lod, threshold):
+    with pytest.raises(haptic.InputError) as e:
+        jaws_lod.query(IDENTITY, delta=DELTA, threshold=threshold)
+    assert e.value.field == "threshold"
+
+
+@pytest.mark.parametrize("cls", [haptic.LodBackend, haptic.ParryBackend])
+def test_bad_obstacles_are_input_errors(make_box, cls):
+    tool = haptic.Mesh(*make_box([-0.01] * 3, [0.01] * 3))
+    slab = haptic.Mesh(*make_box([-0.1, -0.1, -0.02], [0.1, 0.1, 0.0]))
+    with pytest.raises(haptic.InputError) as e:
+        cls(tool, [slab])
+    assert e.value.field == "obstacles[0]"
+    with pytest.raises(haptic.InputError) as e:
+        cls(tool, [(slab, IDENTITY), (slab, [0, 0, 0, 1, 0, 0, np.nan])])
+    assert e.value.field == "obstacles[1].pose"
+    with pytest.raises(haptic.InputError) as e:
+        cls(tool, 42)
+    assert e.value.field == "obstacles"
+
+
+def test_box_over_slab(make_box):
+    """A 2 cm cube 0.5 mm above a slab, within δ = 1 mm: contacts between its bottom and the
+    slab's top, normals down (out of the tool), depths -0.5 mm (apart)."""
+    tool = haptic.Mesh(*make_box([-0.01] * 3, [0.01] * 3))
+    slab = haptic.Mesh(*make_box([-0.1, -0.1, -0.02], [0.1, 0.1, 0.0]))
+    backend = haptic.LodBackend(tool, [(slab, IDENTITY)])
+    pose = np.array([0.0, 0.0, 0.0105, 1.0, 0.0, 0.0, 0.0])
+    contacts, stats = backend.query(pose, delta=DELTA, threshold=0.0)
+    assert stats.broad_phase_hit and len(contacts) > 0
+    assert np.allclose(contacts.n, [0.0, 0.0, -1.0], rtol=0, atol=1e-9)
+    assert np.allclose(contacts.depth, -5e-4, rtol=0, atol=1e-9)
+    assert np.allclose(contacts.p_b[:, 2], 0.0, rtol=0, atol=1e-12)
+    assert np.allclose(contacts.p_a[:, 2], 5e-4, rtol=0, atol=1e-9)
+    # Raised out of δ: nothing.
+    pose[2] = 0.0125
+    far, _ = backend.query(pose, delta=DELTA, threshold=0.0)
+    assert len(far) == 0
