@@ -81,6 +81,18 @@ pub enum ClusterError {
     /// An iteration cap of 0 was asked for.
     #[error("the iteration cap must be at least 1")]
     ZeroIterations,
+    /// More clusters than [`MAX_CLUSTERS`] were asked for.
+    #[error("at most {max} clusters, {asked} asked for", max = MAX_CLUSTERS)]
+    TooManyClusters {
+        /// The number asked for.
+        asked: usize,
+    },
+    /// An iteration cap above [`MAX_ITERATIONS`] was asked for.
+    #[error("at most {max} iterations, {asked} asked for", max = MAX_ITERATIONS)]
+    TooManyIterations {
+        /// The cap asked for.
+        asked: usize,
+    },
     /// `δ` was not finite and positive.
     #[error("the contact tolerance δ must be finite and > 0, got {delta_m} m")]
     BadDelta {
@@ -104,6 +116,12 @@ pub enum ClusterError {
         norm: Real,
     },
 }
+
+/// Most clusters a [`Clusterer`] takes (the haptic thread's model takes 16 representatives;
+/// studies of the clustering itself may ask for more).
+pub const MAX_CLUSTERS: usize = 4096;
+/// Most Lloyd iterations a [`Clusterer`] takes.
+pub const MAX_ITERATIONS: usize = 100_000;
 
 /// What one call did.
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
@@ -239,6 +257,18 @@ impl Clusterer {
         }
         if params.max_iterations == 0 {
             return Err(ClusterError::ZeroIterations);
+        }
+        // The scratch buffers are reserved for K up front: a K beyond any use is an error, not
+        // an allocation that fails.
+        if params.max_clusters > MAX_CLUSTERS {
+            return Err(ClusterError::TooManyClusters {
+                asked: params.max_clusters,
+            });
+        }
+        if params.max_iterations > MAX_ITERATIONS {
+            return Err(ClusterError::TooManyIterations {
+                asked: params.max_iterations,
+            });
         }
         let k = params.max_clusters;
         Ok(Self {

@@ -194,6 +194,23 @@ fn bad_input_gives_typed_errors() {
         .unwrap_err(),
         ClusterError::ZeroIterations
     );
+    // Sizes that would reserve terabytes are refused before anything is reserved.
+    assert_eq!(
+        Clusterer::new(ClusterParams {
+            max_clusters: usize::MAX,
+            ..Default::default()
+        })
+        .unwrap_err(),
+        ClusterError::TooManyClusters { asked: usize::MAX }
+    );
+    assert_eq!(
+        Clusterer::new(ClusterParams {
+            max_iterations: 1 << 40,
+            ..Default::default()
+        })
+        .unwrap_err(),
+        ClusterError::TooManyIterations { asked: 1 << 40 }
+    );
     let mut c = Clusterer::new(ClusterParams::default()).unwrap();
     let mut reps = ContactSet::new();
     let good = contact(Vec3::zeros(), Vec3::z(), 0.0);

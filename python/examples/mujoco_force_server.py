@@ -22,7 +22,7 @@ At the end it prints the rates of both loops, the contact update rate, the large
 and the force server's summary, and exits non-zero if the haptic loop ran below 900 Hz or no
 contact force was rendered (CI runs it through `python/tests/test_example.py`).
 
-    pip install ./python mujoco
+    pip install ./python        # MuJoCo comes with the package
     python python/examples/mujoco_force_server.py --seconds 3 --rate 200
 """
 
@@ -206,6 +206,8 @@ def main() -> int:
         failures.append(f"the haptic loop ran at {haptic_rate:.0f} Hz (< {MIN_HAPTIC_RATE_HZ:.0f})")
     if max_force < MIN_FORCE_N:
         failures.append(f"no contact force was rendered (max {max_force:.3f} N < {MIN_FORCE_N} N)")
+    if int(summary.get("raw_contact_count_max", 0)) == 0:
+        failures.append("the tool never touched the cup (no raw contact in the run)")
     for f in failures:
         print(f"FAIL: {f}", file=sys.stderr)
     return 1 if failures else 0

@@ -14,10 +14,15 @@ use crate::query::PyContacts;
 
 /// Reduces contacts to at most `max_clusters` representatives (weighted k-means, weights
 /// `depth + δ`), warm-started from the previous call's representatives when `warm_start`.
-#[pyclass(module = "haptic", name = "Clusterer")]
+#[pyclass(module = "haptic", name = "Clusterer", frozen)]
 pub struct PyClusterer {
-    clusterer: Clusterer,
-    out: ContactSet,
+    inner: std::sync::Mutex<(Clusterer, ContactSet)>,
+}
+
+impl PyClusterer {
+    fn lock(&self) -> std::sync::MutexGuard<'_, (Clusterer, ContactSet)> {
+        self.inner.lock().unwrap_or_else(|p| p.into_inner())
+    }
 }
 
 #[pymethods]
@@ -37,25 +42,28 @@ impl PyClusterer {
         };
         let clusterer = Clusterer::new(params).map_err(|e| from_cluster(&e))?;
         Ok(Self {
-            clusterer,
-            out: ContactSet::new(),
+            inner: std::sync::Mutex::new((clusterer, ContactSet::new())),
         })
     }
 
     /// The representatives of `contacts` queried with tolerance `delta` (m). The GIL is
-    /// released while clustering.
+    /// released while clustering (the clusterer's lock is taken after it is released).
     fn cluster(
-        &mut self,
+        &self,
         py: Python<'_>,
         contacts: PyRef<'_, PyContacts>,
         delta: f64,
     ) -> PyResult<PyContacts> {
-        let (clusterer, out) = (&mut self.clusterer, &mut self.out);
         let input = &contacts.contacts;
-        py.detach(|| clusterer.cluster(input, delta, out))
-            .map_err(|e| from_cluster(&e))?;
+        let reps = py.detach(|| {
+            let mut guard = self.lock();
+            let (clusterer, out) = &mut *guard;
+            clusterer
+                .cluster(input, delta, out)
+                .map(|_| out.as_slice().to_vec())
+        });
         Ok(PyContacts {
-            contacts: self.out.as_slice().to_vec(),
+            contacts: reps.map_err(|e| from_cluster(&e))?,
         })
     }
 
@@ -63,18 +71,19 @@ impl PyClusterer {
     /// `depth + δ`.
     #[getter]
     fn representative_weights<'py>(&self, py: Python<'py>) -> Bound<'py, PyArray1<f64>> {
-        convert::array1(py, self.clusterer.representative_weights().to_vec())
+        let weights = self.lock().0.representative_weights().to_vec();
+        convert::array1(py, weights)
     }
 
     /// Forgets the warm-start history.
-    fn reset(&mut self) {
-        self.clusterer.reset();
+    fn reset(&self) {
+        self.lock().0.reset();
     }
 
     /// Most representatives.
     #[getter]
     fn max_clusters(&self) -> usize {
-        self.clusterer.params().max_clusters
+        self.lock().0.params().max_clusters
     }
 }
 
@@ -90,6 +99,12 @@ pub struct PyRigidBody {
 impl PyRigidBody {
     #[new]
     fn new(mass_kg: f64, inertia_kg_m2: &Bound<'_, PyAny>) -> PyResult<Self> {
+        if !mass_kg.is_finite() {
+            return Err(crate::errors::input(
+                "mass_kg",
+                format!("must be finite, got {mass_kg}"),
+            ));
+        }
         let inertia = convert::mat3(inertia_kg_m2, "inertia_kg_m2")?;
         let body = RigidBody::new(mass_kg, inertia).map_err(|e| from_core(Class::Dynamics, &e))?;
         Ok(Self { body })

@@ -14,8 +14,21 @@ fn as_f64<'py>(obj: &Bound<'py, PyAny>, field: &str) -> PyResult<Bound<'py, PyAr
     let py = obj.py();
     let np = py.import("numpy")?;
     let arr = np
-        .call_method1("asarray", (obj, "float64"))
+        .call_method1("asarray", (obj,))
         .map_err(|e| input(field, format!("must be an array of numbers ({e})")))?;
+    // Real numbers only: a complex array would lose its imaginary part, a boolean or object
+    // array is not a number.
+    let kind: String = arr.getattr("dtype")?.getattr("kind")?.extract()?;
+    if !matches!(kind.as_str(), "i" | "u" | "f") {
+        return Err(input(
+            field,
+            format!(
+                "must be an array of real numbers, got dtype {}",
+                arr.getattr("dtype")?
+            ),
+        ));
+    }
+    let arr = np.call_method1("asarray", (arr, "float64"))?;
     arr.cast_into::<PyArrayDyn<f64>>()
         .map_err(|_| input(field, "must be an array of numbers"))
 }
@@ -92,13 +105,14 @@ pub fn vec3(obj: &Bound<'_, PyAny>, field: &str) -> PyResult<Vec3> {
 
 /// A 3×3 finite matrix.
 pub fn mat3(obj: &Bound<'_, PyAny>, field: &str) -> PyResult<haptic_core::Mat3> {
-    let r = rows::<3>(obj, field, false)?;
-    if r.len() != 3 {
+    let shape = as_f64(obj, field)?.shape().to_vec();
+    if shape != [3, 3] {
         return Err(input(
             field,
-            format!("must have shape (3, 3), got ({}, 3)", r.len()),
+            format!("must have shape (3, 3), got {shape:?}"),
         ));
     }
+    let r = rows::<3>(obj, field, false)?;
     Ok(haptic_core::Mat3::from_fn(|i, j| r[i][j]))
 }
 
@@ -116,8 +130,14 @@ pub fn pose_from(v: &[f64], field: &str) -> PyResult<Pose> {
             format!("the quaternion [qw, qx, qy, qz] has norm {norm}, not 1"),
         ));
     }
-    // Within 1e-6 of unit (single-precision sources): normalised here, as the core checks 1e-9.
-    Pose::new(Vec3::new(v[0], v[1], v[2]), q / norm).map_err(|e| input(field, e))
+    // Within the core's 1e-9 the quaternion goes as it is (normalised once, by the core, as in
+    // Rust: the same bits); within 1e-6 (single-precision sources) it is scaled to unit first.
+    let q = if (norm - 1.0).abs() <= haptic_core::state::UNIT_QUATERNION_TOL {
+        q
+    } else {
+        q / norm
+    };
+    Pose::new(Vec3::new(v[0], v[1], v[2]), q).map_err(|e| input(field, e))
 }
 
 /// A pose argument (7 floats).

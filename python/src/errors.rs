@@ -195,9 +195,9 @@ pub fn from_mesh(e: &haptic_collision::MeshError) -> PyErr {
     };
     let field = match e {
         M::NonFiniteVertex { .. } => Some("vertices"),
-        M::IndexOutOfRange { .. } | M::DegenerateTriangles { .. } => Some("triangles"),
-        M::Io { .. } => Some("path"),
-        _ => None,
+        M::Empty | M::IndexOutOfRange { .. } | M::DegenerateTriangles { .. } => Some("triangles"),
+        // Unreadable, of an unknown format or unparsable: the file.
+        _ => Some("path"),
     };
     error(Class::Mesh, e.to_string(), field, kind)
 }
@@ -222,8 +222,10 @@ pub fn collision(e: &dyn std::error::Error) -> PyErr {
 pub fn from_cluster(e: &haptic_cluster::ClusterError) -> PyErr {
     use haptic_cluster::ClusterError as C;
     let (field, kind) = match e {
-        C::ZeroClusters => (Some("max_clusters"), "invalid_parameter"),
-        C::ZeroIterations => (Some("max_iterations"), "invalid_parameter"),
+        C::ZeroClusters | C::TooManyClusters { .. } => (Some("max_clusters"), "invalid_parameter"),
+        C::ZeroIterations | C::TooManyIterations { .. } => {
+            (Some("max_iterations"), "invalid_parameter")
+        }
         C::BadDelta { .. } => (Some("delta"), "invalid_parameter"),
         C::NonFiniteContact { .. } | C::BadNormal { .. } => (Some("contacts"), "invalid_contact"),
         _ => (None, "cluster"),
@@ -262,7 +264,12 @@ pub fn from_runtime(e: &haptic_runtime::RuntimeError) -> PyErr {
         }
         R::Scene(s) => from_scene(s),
         R::Grasp(d) => from_dynamics(d),
-        R::Device { kind, .. } => error(Class::Device, e.to_string(), None, device_kind(*kind)),
+        R::Device { kind, .. } => error(
+            Class::Device,
+            e.to_string(),
+            Some("device"),
+            device_kind(*kind),
+        ),
         R::HapticPanic { .. } => error(Class::Pipeline, e.to_string(), None, "haptic_panic"),
         R::NonFiniteFirstReading => {
             error(Class::Device, e.to_string(), Some("device"), "invalid_data")

@@ -3,8 +3,8 @@
 //! and the integrator by name.
 
 use std::path::PathBuf;
-use std::sync::Arc;
 use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::{Arc, Mutex};
 
 use haptic_collision::{LodBackend, ParryBackend};
 use haptic_core::device::{Error as DeviceErrorTrait, ErrorKind};
@@ -94,6 +94,7 @@ impl PyScene {
             None => Pose::identity(),
         };
         let mut obstacle_specs = Vec::new();
+        let mut obstacle_poses = Vec::new();
         let mut obstacle_meshes = Vec::new();
         if let Some(list) = obstacles {
             let items: Vec<Bound<'_, PyAny>> = list
@@ -106,6 +107,7 @@ impl PyScene {
                     .extract()
                     .map_err(|_| input(&field, "must be a (Mesh, pose) pair"))?;
                 let pose = convert::pose(&pose, &format!("{field}.pose"))?;
+                obstacle_poses.push(pose);
                 obstacle_specs.push(ObstacleSpec {
                     mesh: PathBuf::from("<in memory>"),
                     scale_m_per_unit: 1.0,
@@ -166,8 +168,11 @@ impl PyScene {
         let mut parts = py
             .detach(|| spec.assemble_meshes(tool_mesh, obstacle_meshes))
             .map_err(|e| from_scene(&e))?;
-        // The pose spec went through a rotation vector: keep the exact pose given.
+        // The pose specs went through rotation vectors: keep the exact poses given.
         parts.tool_pose = tool_pose;
+        for ((_, pose), exact) in parts.obstacles.iter_mut().zip(&obstacle_poses) {
+            *pose = *exact;
+        }
         Ok(scene_of(&spec, parts))
     }
 
@@ -325,78 +330,128 @@ impl CollisionBackend for AnyBackend {
     }
 }
 
-/// The pose a Python server or callable gives the device, shared with the haptic thread without
-/// a lock (a triple buffer), and the wrench it commanded.
-pub struct SharedLink {
-    /// The newest handle pose.
-    pub pose: triple_buffer::Output<Pose>,
-    /// The wrench commanded last.
-    pub wrench: triple_buffer::Input<Wrench>,
-    /// Raised to end the run: the next reading says the device is disconnected.
-    pub stop: Arc<AtomicBool>,
+/// The twist that takes `a` at `t_a` to `b` at `t_b` (world frame; zero for a non-positive
+/// interval): a backward difference, as a device estimates its handle's velocity.
+pub fn twist_between(a: &Pose, t_a: Real, b: &Pose, t_b: Real) -> Twist {
+    let dt = t_b - t_a;
+    if !dt.is_finite() || dt <= 0.0 {
+        return Twist::zero();
+    }
+    let turn = b.orientation * a.orientation.inverse();
+    Twist {
+        linear: (b.position - a.position) / dt,
+        angular: turn.scaled_axis() / dt,
+    }
 }
 
-/// The device chosen at run time.
+/// The handle state a Python force server publishes for the haptic thread (a triple buffer),
+/// and the wrench the haptic thread commanded.
+pub struct SharedLink {
+    /// The newest handle pose and twist.
+    pub state: triple_buffer::Output<(Pose, Twist)>,
+    /// The wrench commanded last.
+    pub wrench: triple_buffer::Input<Wrench>,
+}
+
+/// Where a Python run's device gets its handle from.
 // One value per run, read at every haptic step: kept inline rather than boxed.
 #[allow(clippy::large_enum_variant)]
-pub enum AnyDevice {
+pub enum Source {
     /// The scene's simulated hand.
     Hand(HandDevice),
     /// A handle through given poses.
     Scripted(ScriptedDevice),
-    /// A Python callable `t -> pose`.
+    /// A Python callable `t -> pose`, its twist a backward difference of its readings.
     Callable {
         /// The callable.
         f: Py<PyAny>,
-        /// Limits (the scene's).
-        limits: DeviceLimits,
-        /// Its first exception, kept to be raised when the run ends.
-        error: Option<PyErr>,
+        /// The previous reading `(t, pose)`.
+        last: Option<(Real, Pose)>,
     },
-    /// A pose set from Python while the run goes (the force server).
-    Shared {
-        /// The link to Python.
-        link: SharedLink,
-        /// Limits (the scene's).
-        limits: DeviceLimits,
-    },
+    /// A pose (and twist) set from Python while the run goes (the force server).
+    Shared(SharedLink),
 }
 
-/// The error of [`AnyDevice`].
+/// The device of a Python run: its source, the scene's limits, and a stop flag that ends the
+/// run at the next reading (raised by `ForceServer.stop` or by Ctrl-C).
+pub struct PyDevice {
+    /// Where the handle comes from.
+    pub source: Source,
+    /// The device limits (the scene's).
+    pub limits: DeviceLimits,
+    /// Raised to end the run: the next reading says the device is disconnected.
+    pub stop: Arc<AtomicBool>,
+    /// In virtual time, on the calling thread: check for Ctrl-C every this many readings
+    /// (0: never; the haptic thread of a real-time run never takes the GIL).
+    pub signal_every: u64,
+    reads: u64,
+    /// The callable's first exception or a signal's (KeyboardInterrupt), kept to be raised when
+    /// the run ends; shared, so that an error during the pipeline's build (its first reading)
+    /// is not lost with the device. Locked only when an error is stored.
+    pub python_error: Arc<Mutex<Option<PyErr>>>,
+}
+
+impl PyDevice {
+    /// A device reading `source`.
+    pub fn new(source: Source, limits: DeviceLimits, signal_every: u64) -> Self {
+        Self {
+            source,
+            limits,
+            stop: Arc::new(AtomicBool::new(false)),
+            signal_every,
+            reads: 0,
+            python_error: Arc::new(Mutex::new(None)),
+        }
+    }
+}
+
+/// Keeps `e` in `slot` unless an earlier exception is there.
+fn keep(slot: &Mutex<Option<PyErr>>, e: PyErr) {
+    if let Ok(mut slot) = slot.lock() {
+        slot.get_or_insert(e);
+    }
+}
+
+/// The Python exception a run's device kept, if any.
+pub fn take_python_error(slot: &Mutex<Option<PyErr>>) -> Option<PyErr> {
+    slot.lock().ok().and_then(|mut s| s.take())
+}
+
+/// The error of [`PyDevice`].
 #[derive(Debug)]
-pub enum AnyDeviceError {
+pub enum PyDeviceError {
     /// From a library device.
     Device(haptic_device::DeviceError),
     /// The callable raised or returned something that is not a pose.
     Callable(String),
     /// The callable returned a pose with a NaN or infinity.
     NonFinite,
-    /// The server was stopped.
+    /// The run was stopped (`ForceServer.stop`, Ctrl-C).
     Stopped,
 }
 
-impl std::fmt::Display for AnyDeviceError {
+impl std::fmt::Display for PyDeviceError {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
         match self {
-            AnyDeviceError::Device(e) => write!(f, "{e}"),
-            AnyDeviceError::Callable(m) => write!(f, "the device callable failed: {m}"),
-            AnyDeviceError::NonFinite => {
+            PyDeviceError::Device(e) => write!(f, "{e}"),
+            PyDeviceError::Callable(m) => write!(f, "the device callable failed: {m}"),
+            PyDeviceError::NonFinite => {
                 f.write_str("the device callable returned a non-finite pose")
             }
-            AnyDeviceError::Stopped => f.write_str("the force server was stopped"),
+            PyDeviceError::Stopped => f.write_str("the run was stopped"),
         }
     }
 }
 
-impl std::error::Error for AnyDeviceError {}
+impl std::error::Error for PyDeviceError {}
 
-impl DeviceErrorTrait for AnyDeviceError {
+impl DeviceErrorTrait for PyDeviceError {
     fn kind(&self) -> ErrorKind {
         match self {
-            AnyDeviceError::Device(e) => e.kind(),
-            AnyDeviceError::Callable(_) => ErrorKind::Other,
-            AnyDeviceError::NonFinite => ErrorKind::InvalidData,
-            AnyDeviceError::Stopped => ErrorKind::Disconnected,
+            PyDeviceError::Device(e) => e.kind(),
+            PyDeviceError::Callable(_) => ErrorKind::Other,
+            PyDeviceError::NonFinite => ErrorKind::InvalidData,
+            PyDeviceError::Stopped => ErrorKind::Disconnected,
         }
     }
 }
@@ -415,64 +470,68 @@ fn call_pose(f: &Py<PyAny>, t_s: Real) -> Result<Pose, Option<PyErr>> {
     })
 }
 
-impl Device for AnyDevice {
-    type Error = AnyDeviceError;
+impl Device for PyDevice {
+    type Error = PyDeviceError;
 
     fn name(&self) -> &str {
-        match self {
-            AnyDevice::Hand(d) => d.name(),
-            AnyDevice::Scripted(d) => d.name(),
-            AnyDevice::Callable { .. } => "python callable",
-            AnyDevice::Shared { .. } => "python force server",
+        match &self.source {
+            Source::Hand(d) => d.name(),
+            Source::Scripted(d) => d.name(),
+            Source::Callable { .. } => "python callable",
+            Source::Shared(_) => "python force server",
         }
     }
 
     fn limits(&self) -> DeviceLimits {
-        match self {
-            AnyDevice::Hand(d) => d.limits(),
-            AnyDevice::Scripted(d) => d.limits(),
-            AnyDevice::Callable { limits, .. } | AnyDevice::Shared { limits, .. } => *limits,
-        }
+        self.limits
     }
 
-    fn read(&mut self, now_s: Real) -> Result<DeviceState, AnyDeviceError> {
-        let pose = match self {
-            AnyDevice::Hand(d) => return d.read(now_s).map_err(AnyDeviceError::Device),
-            AnyDevice::Scripted(d) => return d.read(now_s).map_err(AnyDeviceError::Device),
-            AnyDevice::Callable { f, error, .. } => match call_pose(f, now_s) {
-                Ok(p) => p,
-                Err(None) => return Err(AnyDeviceError::NonFinite),
+    fn read(&mut self, now_s: Real) -> Result<DeviceState, PyDeviceError> {
+        if self.stop.load(Ordering::Acquire) {
+            return Err(PyDeviceError::Stopped);
+        }
+        self.reads += 1;
+        if self.signal_every > 0 && self.reads % self.signal_every == 0 {
+            if let Err(e) = Python::attach(|py| py.check_signals()) {
+                keep(&self.python_error, e);
+                return Err(PyDeviceError::Stopped);
+            }
+        }
+        let slot = &self.python_error;
+        let (pose, twist) = match &mut self.source {
+            Source::Hand(d) => return d.read(now_s).map_err(PyDeviceError::Device),
+            Source::Scripted(d) => return d.read(now_s).map_err(PyDeviceError::Device),
+            Source::Callable { f, last } => match call_pose(f, now_s) {
+                Ok(p) => {
+                    let twist =
+                        last.map_or(Twist::zero(), |(t, q)| twist_between(&q, t, &p, now_s));
+                    *last = Some((now_s, p));
+                    (p, twist)
+                }
+                Err(None) => return Err(PyDeviceError::NonFinite),
                 Err(Some(e)) => {
                     let message = e.to_string();
-                    error.get_or_insert(e);
-                    return Err(AnyDeviceError::Callable(message));
+                    keep(slot, e);
+                    return Err(PyDeviceError::Callable(message));
                 }
             },
-            AnyDevice::Shared { link, .. } => {
-                if link.stop.load(Ordering::Acquire) {
-                    return Err(AnyDeviceError::Stopped);
-                }
-                *link.pose.read()
-            }
+            Source::Shared(link) => *link.state.read(),
         };
         Ok(DeviceState {
             pose,
-            twist: Twist::zero(),
+            twist,
             buttons: 0,
             timestamp_s: now_s,
         })
     }
 
-    fn command(&mut self, wrench: &Wrench) -> Result<(), AnyDeviceError> {
-        match self {
-            AnyDevice::Hand(d) => d.command(wrench).map_err(AnyDeviceError::Device),
-            AnyDevice::Scripted(d) => d.command(wrench).map_err(AnyDeviceError::Device),
-            AnyDevice::Callable { limits, .. } => {
-                let _ = limits.saturate(wrench);
-                Ok(())
-            }
-            AnyDevice::Shared { link, limits } => {
-                link.wrench.write(limits.saturate(wrench).0);
+    fn command(&mut self, wrench: &Wrench) -> Result<(), PyDeviceError> {
+        match &mut self.source {
+            Source::Hand(d) => d.command(wrench).map_err(PyDeviceError::Device),
+            Source::Scripted(d) => d.command(wrench).map_err(PyDeviceError::Device),
+            Source::Callable { .. } => Ok(()),
+            Source::Shared(link) => {
+                link.wrench.write(self.limits.saturate(wrench).0);
                 Ok(())
             }
         }

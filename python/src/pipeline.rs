@@ -15,10 +15,10 @@ use pyo3::prelude::*;
 
 use crate::convert;
 use crate::errors::{Class, error, from_dynamics, from_runtime, from_scene, input};
-use crate::parts::{AnyBackend, AnyDevice, PyScene, waypoint_list};
+use crate::parts::{AnyBackend, PyDevice, PyScene, Source, take_python_error, waypoint_list};
 
 /// The pipeline of a Python run.
-pub type PyPipeline<I> = Pipeline<I, AnyBackend, PenaltyModel, AnyDevice>;
+pub type PyPipeline<I> = Pipeline<I, AnyBackend, PenaltyModel, PyDevice>;
 
 /// The summary as a dict (the demo's `--json`).
 pub fn summary_dict<'py>(py: Python<'py>, s: &Summary) -> PyResult<Bound<'py, PyAny>> {
@@ -37,8 +37,8 @@ pub fn build<I: Integrator>(
     scene: &PyScene,
     integrator: I,
     backend: AnyBackend,
-    device: AnyDevice,
-) -> PyResult<PyPipeline<I>> {
+    device: PyDevice,
+) -> Result<PyPipeline<I>, PyErr> {
     let p = &scene.parts;
     PipelineBuilder::new(p.body, p.tool_pose)
         .integrator(integrator)
@@ -169,26 +169,60 @@ impl PyRun {
     }
 }
 
-/// The device a run is given: the scene's hand, `(times, poses)`, or a callable.
-fn device_of(scene: &PyScene, device: Option<&Bound<'_, PyAny>>) -> PyResult<AnyDevice> {
+/// The device a run is given: the scene's hand, `(times, poses)`, or a callable. In virtual
+/// time (`signal_every > 0`) it checks for Ctrl-C every that many readings.
+fn device_of(
+    scene: &PyScene,
+    device: Option<&Bound<'_, PyAny>>,
+    signal_every: u64,
+) -> PyResult<PyDevice> {
     let limits = scene.parts.limits;
-    match device {
-        None => Ok(AnyDevice::Hand(
-            scene.parts.hand_device().map_err(|e| from_scene(&e))?,
-        )),
-        Some(d) if d.is_callable() => Ok(AnyDevice::Callable {
+    let source = match device {
+        None => Source::Hand(scene.parts.hand_device().map_err(|e| from_scene(&e))?),
+        Some(d) if d.is_callable() => Source::Callable {
             f: d.clone().unbind(),
-            limits,
-            error: None,
-        }),
+            last: None,
+        },
         Some(d) => {
             let waypoints = waypoint_list(d, "device")?;
             let scripted = ScriptedDevice::from_waypoints(waypoints, limits)
                 .map_err(|e| input("device", e))?;
-            Ok(AnyDevice::Scripted(scripted))
+            Source::Scripted(scripted)
+        }
+    };
+    Ok(PyDevice::new(source, limits, signal_every))
+}
+
+/// The exception for a run that ended with `e`, or with the device's Python exception `cause`
+/// (a callable that raised, Ctrl-C): an `Exception` becomes a `PipelineError` whose
+/// `__cause__` it is; a `KeyboardInterrupt` or `SystemExit` is raised as it is.
+fn run_error(py: Python<'_>, e: Option<&RuntimeError>, cause: Option<PyErr>) -> PyErr {
+    let Some(cause) = cause else {
+        return match e {
+            Some(e) => from_runtime(e),
+            None => error(Class::Pipeline, "the run failed", None, "pipeline"),
+        };
+    };
+    if !cause.is_instance_of::<pyo3::exceptions::PyException>(py) {
+        return cause;
+    }
+    let err = error(
+        Class::Pipeline,
+        format!("the device callable raised: {cause}"),
+        Some("device"),
+        "device_callable",
+    );
+    err.set_cause(py, Some(cause));
+    if let Some(s) = e.and_then(RuntimeError::summary) {
+        if let Ok(d) = summary_dict(py, s) {
+            let _ = err.value(py).setattr("summary", d);
         }
     }
+    err
 }
+
+/// Most haptic steps a virtual-time run records (its telemetry takes about 190 bytes a step).
+pub const MAX_RECORDED_STEPS: f64 = 1e7;
 
 /// Runs `scene` for `seconds` of simulated time, single-threaded and deterministic.
 #[pyfunction]
@@ -203,43 +237,46 @@ pub fn run_virtual(
     contact_rate_hz: Option<f64>,
 ) -> PyResult<PyRun> {
     convert::non_negative(seconds, "seconds")?;
+    let steps = seconds * scene.parts.config.haptic_rate_hz;
+    if steps > MAX_RECORDED_STEPS {
+        return Err(input(
+            "seconds",
+            format!(
+                "{seconds} s at {} Hz is {steps:.3e} steps; a run records at most {MAX_RECORDED_STEPS:e}",
+                scene.parts.config.haptic_rate_hz
+            ),
+        ));
+    }
     let kind = integrator_kind(integrator)?;
     let rate_hz = contact_rate_hz.or(scene.parts.contact_hz).unwrap_or(250.0);
     convert::positive(rate_hz, "contact_rate_hz")?;
-    let device = device_of(&scene, device)?;
+    let device = device_of(&scene, device, 1000)?;
+    let python_error = device.python_error.clone();
     let parts = &scene.parts;
     let backend = py.detach(|| AnyBackend::new(backend, parts))?;
     let latency = ContactLatency::FixedRate { rate_hz };
-    let (outcome, series, callable_error) = with_integrator!(kind, &scene, backend, device, |p| {
-        let (outcome, series) = run_recorded(py, &mut p, seconds, latency);
-        let err = match p.haptic_mut().device_mut() {
-            AnyDevice::Callable { error, .. } => error.take(),
-            _ => None,
-        };
-        (outcome, series, err)
-    });
-    let summary = match outcome {
-        Ok(s) => s,
+    let built: PyResult<(Result<Summary, RuntimeError>, Series)> = (|| {
+        Ok(with_integrator!(kind, &scene, backend, device, |p| {
+            run_recorded(py, &mut p, seconds, latency)
+        }))
+    })();
+    let (outcome, series) = match built {
+        Ok(r) => r,
+        // The first reading happens while the pipeline is built: a callable that raised there.
         Err(e) => {
-            let err = match callable_error {
-                Some(cause) => {
-                    let err = error(
-                        Class::Pipeline,
-                        format!("the device callable raised: {cause}"),
-                        Some("device"),
-                        "device_callable",
-                    );
-                    err.set_cause(py, Some(cause));
-                    if let Some(s) = e.summary() {
-                        err.value(py).setattr("summary", summary_dict(py, s)?)?;
-                    }
-                    err
-                }
-                None => from_runtime(&e),
-            };
-            return Err(err);
+            return Err(
+                take_python_error(&python_error).map_or(e, |c| run_error(py, None, Some(c)))
+            );
         }
     };
+    let summary = match outcome {
+        Ok(s) => s,
+        Err(e) => return Err(run_error(py, Some(&e), take_python_error(&python_error))),
+    };
+    // Ctrl-C ends a run through its device like a disconnection: raise it.
+    if let Some(e) = take_python_error(&python_error) {
+        return Err(run_error(py, None, Some(e)));
+    }
     Ok(PyRun {
         t: convert::array1(py, series.t).unbind(),
         tool_pose: convert::array_rows(py, &series.tool).unbind(),
@@ -277,12 +314,28 @@ pub fn run_realtime(
 ) -> PyResult<PyRealtimeResult> {
     convert::non_negative(seconds, "seconds")?;
     let kind = integrator_kind(integrator)?;
-    let device = device_of(&scene, None)?;
+    let device = device_of(&scene, None, 0)?;
+    let stop = device.stop.clone();
     let parts = &scene.parts;
     let backend = py.detach(|| AnyBackend::new(backend, parts))?;
+    let mut interrupt = None;
     let outcome = with_integrator!(kind, &scene, backend, device, |p| {
-        py.detach(|| p.run_realtime(seconds, |_| {}))
+        py.detach(|| {
+            p.run_realtime(seconds, |_| {
+                // Ten times a second, on the calling thread: Ctrl-C stops the run (at zero
+                // force) through its device.
+                if interrupt.is_none() {
+                    if let Err(e) = Python::attach(|py| py.check_signals()) {
+                        interrupt = Some(e);
+                        stop.store(true, std::sync::atomic::Ordering::Release);
+                    }
+                }
+            })
+        })
     });
+    if let Some(e) = interrupt {
+        return Err(e);
+    }
     let summary = outcome.map_err(|e| from_runtime(&e))?;
     Ok(PyRealtimeResult {
         summary: summary_dict(py, &summary)?.unbind(),

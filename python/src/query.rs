@@ -1,6 +1,7 @@
 //! `haptic.Contacts`, `haptic.QueryStats`, `haptic.LodBackend` and `haptic.ParryBackend`:
 //! collision queries whose contacts come back as numpy arrays (no Python object per contact).
 
+use std::sync::Mutex;
 use std::time::Instant;
 
 use haptic_collision::{LodBackend, ParryBackend, TriMesh};
@@ -181,11 +182,11 @@ fn obstacles(list: &Bound<'_, PyAny>) -> PyResult<Vec<(TriMesh, Pose)>> {
     Ok(out)
 }
 
-/// Runs one query of `backend` with the GIL released.
+/// Runs one query of `backend` with the GIL released; the back-end's lock is taken after the
+/// GIL is released, so that other Python threads wait for it without holding the GIL.
 fn query<B: CollisionBackend + Send>(
     py: Python<'_>,
-    backend: &mut B,
-    scratch: &mut ContactSet,
+    inner: &Mutex<(B, ContactSet)>,
     pose: &Bound<'_, PyAny>,
     delta: f64,
     threshold: f64,
@@ -193,17 +194,18 @@ fn query<B: CollisionBackend + Send>(
     let pose = convert::pose(pose, "pose")?;
     convert::positive(delta, "delta")?;
     convert::non_negative(threshold, "threshold")?;
-    let params = QueryParams::new(delta, threshold).map_err(|e| input("delta", e))?;
-    let (result, time_s) = py.detach(|| {
+    let params = QueryParams::new(delta, threshold).map_err(|e| input("threshold", e))?;
+    let (result, contacts, time_s) = py.detach(|| {
+        let mut guard = inner.lock().unwrap_or_else(|p| p.into_inner());
+        let (backend, scratch) = &mut *guard;
         let start = Instant::now();
         let r = backend.query(&pose, &params, scratch);
-        (r, start.elapsed().as_secs_f64())
+        let time_s = start.elapsed().as_secs_f64();
+        (r, scratch.as_slice().to_vec(), time_s)
     });
     let stats = result.map_err(|e| collision(&e))?;
     Ok((
-        PyContacts {
-            contacts: scratch.as_slice().to_vec(),
-        },
+        PyContacts { contacts },
         PyQueryStats {
             broad_phase_hit: stats.broad_phase_hit,
             node_pairs_tested: stats.node_pairs_tested,
@@ -215,11 +217,13 @@ fn query<B: CollisionBackend + Send>(
 
 /// The native sensation-preserving multiresolution back-end: `LodBackend(tool, obstacles)`, the
 /// tool mesh in its body frame and `[(Mesh, pose), …]` the obstacles with their world poses.
-/// Building the hierarchies releases the GIL.
-#[pyclass(module = "haptic", name = "LodBackend")]
+/// Building the hierarchies and querying release the GIL; one back-end may be used from
+/// several Python threads (their queries take turns).
+#[pyclass(module = "haptic", name = "LodBackend", frozen)]
 pub struct PyLodBackend {
-    pub(crate) backend: LodBackend,
-    scratch: ContactSet,
+    inner: Mutex<(LodBackend, ContactSet)>,
+    node_count: usize,
+    radius_m: f64,
 }
 
 #[pymethods]
@@ -236,8 +240,9 @@ impl PyLodBackend {
             .detach(|| LodBackend::new(&tool, &obstacles))
             .map_err(|e| collision(&e))?;
         Ok(Self {
-            backend,
-            scratch: ContactSet::with_capacity(256),
+            node_count: backend.node_count(),
+            radius_m: backend.tool_bounding_radius_m(),
+            inner: Mutex::new((backend, ContactSet::with_capacity(256))),
         })
     }
 
@@ -246,41 +251,34 @@ impl PyLodBackend {
     /// is released during the query.
     #[pyo3(signature = (pose, delta, threshold = 0.0))]
     fn query(
-        &mut self,
+        &self,
         py: Python<'_>,
         pose: &Bound<'_, PyAny>,
         delta: f64,
         threshold: f64,
     ) -> PyResult<(PyContacts, PyQueryStats)> {
-        query(
-            py,
-            &mut self.backend,
-            &mut self.scratch,
-            pose,
-            delta,
-            threshold,
-        )
+        query(py, &self.inner, pose, delta, threshold)
     }
 
     /// Nodes in the hierarchies.
     #[getter]
     fn node_count(&self) -> usize {
-        self.backend.node_count()
+        self.node_count
     }
 
     /// The tool's bounding radius about its body origin (m): the unit of `threshold`.
     #[getter]
     fn tool_bounding_radius_m(&self) -> f64 {
-        self.backend.tool_bounding_radius_m()
+        self.radius_m
     }
 }
 
 /// The parry3d back-end (exact triangle-mesh contacts; the threshold is ignored), built like
 /// `LodBackend`.
-#[pyclass(module = "haptic", name = "ParryBackend")]
+#[pyclass(module = "haptic", name = "ParryBackend", frozen)]
 pub struct PyParryBackend {
-    pub(crate) backend: ParryBackend,
-    scratch: ContactSet,
+    inner: Mutex<(ParryBackend, ContactSet)>,
+    radius_m: f64,
 }
 
 #[pymethods]
@@ -297,33 +295,26 @@ impl PyParryBackend {
             .detach(|| ParryBackend::new(&tool, &obstacles))
             .map_err(|e| collision(&e))?;
         Ok(Self {
-            backend,
-            scratch: ContactSet::with_capacity(256),
+            radius_m: backend.tool_bounding_radius_m(),
+            inner: Mutex::new((backend, ContactSet::with_capacity(256))),
         })
     }
 
     /// As `LodBackend.query`; `threshold` is accepted and ignored (parry is exact).
     #[pyo3(signature = (pose, delta, threshold = 0.0))]
     fn query(
-        &mut self,
+        &self,
         py: Python<'_>,
         pose: &Bound<'_, PyAny>,
         delta: f64,
         threshold: f64,
     ) -> PyResult<(PyContacts, PyQueryStats)> {
-        query(
-            py,
-            &mut self.backend,
-            &mut self.scratch,
-            pose,
-            delta,
-            threshold,
-        )
+        query(py, &self.inner, pose, delta, threshold)
     }
 
     /// The tool's bounding radius about its body origin (m).
     #[getter]
     fn tool_bounding_radius_m(&self) -> f64 {
-        self.backend.tool_bounding_radius_m()
+        self.radius_m
     }
 }

@@ -41,9 +41,20 @@ def rotation_matrix(q) -> np.ndarray:
 
 # The upper jaw as stored sits on the lower one in occlusion: the identity touches. The second
 # pose slides it 0.2 mm, lifts it 0.1 mm and turns it by 0.1° about a skew axis.
+def random_pose(seed: int) -> np.ndarray:
+    """A pose near occlusion with a random axis: its quaternion's norm is 1 only to rounding,
+    as a user's would be (the normalisation must give the same bits as in Rust)."""
+    rng = np.random.default_rng(seed)
+    axis = rng.normal(size=3)
+    return rotation_pose(rng.uniform(-2e-4, 2e-4, size=3), axis / np.linalg.norm(axis),
+                         math.radians(rng.uniform(0.05, 0.3)))
+
+
 POSES = {
     "occlusion": IDENTITY,
     "slid": rotation_pose([2e-4, -1e-4, 1e-4], [0.2, 1.0, 0.1], math.radians(0.1)),
+    "random-a": random_pose(7),
+    "random-b": random_pose(11),
 }
 
 
@@ -113,7 +124,8 @@ def jaws_parry(jaws_meshes) -> haptic.ParryBackend:
 
 @pytest.mark.parametrize(
     "pose_name, threshold",
-    [("occlusion", 0.025), ("occlusion", 0.0), ("slid", 0.025)],
+    [("occlusion", 0.025), ("occlusion", 0.0), ("slid", 0.025), ("random-a", 0.025),
+     ("random-b", 0.004)],
 )
 def test_lod_query_matches_rust_bit_for_bit(
     jaws_meshes, jaws_lod, mesh_paths, rust_reference, pose_name, threshold

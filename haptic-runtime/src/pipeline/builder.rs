@@ -171,7 +171,7 @@ impl<I: Integrator, B: CollisionBackend, C: ContactModel, D: Device> PipelineBui
                 config.query,
             ),
             config,
-            live: LiveTelemetry::default(),
+            live: std::sync::Arc::new(LiveTelemetry::default()),
         })
     }
 }

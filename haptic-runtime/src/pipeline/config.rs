@@ -50,12 +50,12 @@ impl PipelineConfig {
     /// [`RuntimeError::Config`] naming the field.
     pub fn validate(&self) -> Result<(), RuntimeError> {
         if !(self.haptic_rate_hz.is_finite()
-            && self.haptic_rate_hz > 0.0
+            && self.haptic_rate_hz >= 1.0
             && self.haptic_rate_hz <= 20_000.0)
         {
             return Err(RuntimeError::config(
                 "haptic_rate_hz",
-                "must be in (0, 20000] Hz",
+                "must be in [1, 20000] Hz",
             ));
         }
         QueryParams::new(self.query.delta_m, self.query.error_threshold)

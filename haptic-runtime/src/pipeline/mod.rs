@@ -68,7 +68,7 @@ pub struct Pipeline<I, B, C, D> {
     haptic: HapticStage<I, D>,
     contact: ContactStage<B, C>,
     config: PipelineConfig,
-    live: LiveTelemetry,
+    live: std::sync::Arc<LiveTelemetry>,
 }
 
 impl<I: Integrator, B: CollisionBackend, C: ContactModel, D: Device> Pipeline<I, B, C, D> {
@@ -95,6 +95,12 @@ impl<I: Integrator, B: CollisionBackend, C: ContactModel, D: Device> Pipeline<I,
     /// Live counters, readable while running.
     pub fn live(&self) -> Snapshot {
         self.live.snapshot()
+    }
+
+    /// The live counters themselves, shared: another thread can read them (lock-free) while
+    /// the pipeline runs, as a server that hands the pipeline to a thread of its own does.
+    pub fn live_handle(&self) -> std::sync::Arc<LiveTelemetry> {
+        self.live.clone()
     }
 
     fn summarize(&self, mode: RunMode, duration_s: Real, c: &ContactStats) -> Summary {

@@ -357,8 +357,11 @@ impl Scene {
             ));
         }
         positive("rates.haptic_hz", self.rates.haptic_hz)?;
-        if self.rates.haptic_hz > 20_000.0 {
-            return Err(invalid("rates.haptic_hz", "must be at most 20 kHz"));
+        if !(1.0..=20_000.0).contains(&self.rates.haptic_hz) {
+            return Err(invalid(
+                "rates.haptic_hz",
+                "must be between 1 Hz and 20 kHz",
+            ));
         }
         if let Some(c) = self.rates.contact_hz {
             positive("rates.contact_hz", c)?;

@@ -592,7 +592,11 @@ class ForceServer:
         backend: _BackendName | str = "lod",
     ) -> None: ...
     def __enter__(self) -> ForceServer:
-        """Starts the server (if it is not running) and returns it."""
+        """Starts the server and returns it.
+
+        Raises:
+            PipelineError: a server that runs already.
+        """
     def __exit__(
         self,
         exc_type: type[BaseException] | None,
@@ -601,10 +605,11 @@ class ForceServer:
     ) -> None:
         """Stops the server (if it is running); :attr:`summary` is then set."""
     def start(self) -> None:
-        """Starts the haptic and contact threads.
+        """Starts the haptic and contact threads (again after a stop: a new run). The handle
+        starts at the scene's tool pose until :meth:`set_device_pose` moves it.
 
         Raises:
-            HapticError: a server that runs already or was stopped.
+            PipelineError: a server that runs already.
         """
     def stop(self) -> dict[str, Any]:
         """Stops the threads (zero force is commanded) and returns the run's summary (also in
@@ -613,25 +618,32 @@ class ForceServer:
         Raises:
             HapticError: a server that is not running.
         """
-    def set_device_pose(self, pose: _Pose) -> None:
+    def set_device_pose(self, pose: _Pose, twist: ArrayLike | None = None) -> None:
         """The handle's new pose (from your simulator), picked up by the haptic thread at its
-        next step. Never blocks.
+        next step, with its twist ``[vx, vy, vz, wx, wy, wz]`` (m/s, rad/s, world frame) for the
+        coupling's damper: ``twist`` when given, else the difference from the previous pose
+        over the time between the two calls.
 
         Raises:
             InputError: a bad pose (NaN, non-unit quaternion, wrong length; ``.field ==
-                "pose"``).
-            HapticError: a server that is not running.
+                "pose"``) or twist (``.field == "twist"``).
+            PipelineError: a server that is not running, or whose run ended on its own (a
+                device failure, a panic; ``.summary`` holds the run).
         """
     def wrench(self) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
         """``(force (3,), torque (3,))``: the wrench the haptic thread last sent the handle
         (N, N m, world frame), within the scene's device limits. Never blocks."""
     def tool_pose(self) -> NDArray[np.float64]:
-        """The virtual tool's pose (its centre of mass) after the last haptic step, ``(7,)``."""
+        """The virtual tool's pose (its centre of mass) after the haptic thread's latest step,
+        ``(7,)`` (the scene's tool pose before the first), read lock-free."""
+    def device_pose(self) -> NDArray[np.float64]:
+        """The handle's pose last set with :meth:`set_device_pose`, ``(7,)``."""
     def stats(self) -> dict[str, Any]:
-        """Live statistics: ``steps`` (haptic steps so far), ``time_s`` (since the start),
-        ``haptic_rate_hz``, ``contact_updates``, ``raw_contact_count`` and ``cluster_count``
-        (of the newest contact update), ``max_force_n`` (largest force sent so far) and
-        ``running``."""
+        """Live statistics, read lock-free from the haptic thread's counters: ``steps``
+        (haptic steps so far), ``time_s`` (since the start), ``haptic_rate_hz``,
+        ``contact_updates``, ``raw_contact_count`` and ``cluster_count`` (of the newest
+        contact update), ``max_force_n`` (largest force sent so far), ``deadline_misses``,
+        ``zero_force_steps`` and ``running``."""
     @property
     def summary(self) -> dict[str, Any] | None:
         """The run's summary once stopped (the keys of :attr:`Run.summary`), else ``None``."""
