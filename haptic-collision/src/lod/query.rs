@@ -260,13 +260,16 @@ fn emit_coarse(
         let Some((c, d)) = piece.closest_within(x, delta) else {
             continue;
         };
-        if d <= 0.0 {
+        // The normal normalised by the points' own difference (see `convex_polygon_pair`).
+        let gap = c - x;
+        let len = gap.norm();
+        if d <= 0.0 || len <= 0.0 {
             continue;
         }
         let sample = PairContact {
             p_a: *x,
             p_b: c,
-            n: (c - x) / d,
+            n: gap / len,
             depth: -d,
             distance: d,
         };

@@ -25,7 +25,9 @@
 //!   a chain of warm starts reached. The error with each run's own chain (`_chained`) and the
 //!   clustering's own variability (the reference's contacts clustered cold against its warm
 //!   chain, `clustering_variability_rel_*`) are reported beside it.
-//! - Output: `DIR/collision.json` and `DIR/collision_work_precision.svg`.
+//! - Output: `DIR/collision.json` and `DIR/collision_work_precision.svg`; each row has the mean
+//!   and the most raw contacts of a query (`contacts_max`).
+//! - `--suite`: every scene of the generalization suite (see `suite.rs`).
 
 use std::path::Path;
 use std::time::Instant;
@@ -45,26 +47,45 @@ use crate::common;
 use crate::plot::{self, Chart, Scale, Series};
 
 /// LOD error thresholds, fractions of the tool's bounding radius.
-const THRESHOLDS: [Real; 5] = [0.0, 0.004, 0.01, 0.025, 0.05];
+pub(super) const THRESHOLDS: [Real; 5] = [0.0, 0.004, 0.01, 0.025, 0.05];
 /// Poses per sequence.
-const POSES: usize = 200;
+pub(super) const POSES: usize = 200;
 
-/// A tool, one obstacle, the pose sequence and the query parameters.
-struct Scene {
-    name: String,
-    tool: TriMesh,
-    obstacle: TriMesh,
-    poses: Vec<Pose>,
-    delta_m: Real,
-    k_c: Real,
-    description: String,
+/// A tool (in its body frame), one obstacle (at the identity), the pose sequence and the query
+/// parameters.
+pub(super) struct Scene {
+    pub name: String,
+    pub tool: TriMesh,
+    pub obstacle: TriMesh,
+    pub poses: Vec<Pose>,
+    pub delta_m: Real,
+    pub k_c: Real,
+    pub description: String,
 }
 
-/// Runs the benchmark.
-pub fn run(args: &super::CollisionArgs, out: &crate::OutArgs) -> anyhow::Result<()> {
-    let dir = out.dir("collision")?;
-    let scene = load_scene(args)?;
-    let passes = if out.quick { 1 } else { 3 };
+/// What one scene measured: a row per back-end and threshold, and the figures around them.
+pub(super) struct SceneMeasure {
+    /// parry, then LOD at each of [`THRESHOLDS`].
+    pub rows: Vec<Row>,
+    /// The reference run (LOD at threshold 0): its wrench per pose.
+    pub reference: RunResult,
+    /// LOD hierarchies' build (s), and their statistics.
+    pub lod_build_s: Real,
+    lod_build: haptic_collision::lod::BuildStats,
+    lod_memory_bytes: usize,
+    /// parry's build (s).
+    pub parry_build_s: Real,
+    /// The tool's bounding radius (m).
+    pub radius_m: Real,
+    /// parry's median query time over LOD's at 2.5 %.
+    pub speedup_2_5: Real,
+    /// A query with the tool far away (s).
+    pub far_tool_query_s: Real,
+}
+
+/// Measures `scene`: builds both back-ends, replays its poses `passes` times with parry and
+/// with LOD at each threshold, and prints a line per run.
+pub(super) fn measure(scene: &Scene, passes: usize) -> anyhow::Result<SceneMeasure> {
     println!(
         "collision bench: scene {}, {} + {} triangles, {} poses × {passes}, δ = {} mm",
         scene.name,
@@ -91,27 +112,28 @@ pub fn run(args: &super::CollisionArgs, out: &crate::OutArgs) -> anyhow::Result<
     let radius = lod.tool_bounding_radius_m();
 
     // Reference run first (LOD at threshold 0), then the others.
-    let reference = run_backend(&mut lod, &scene, 0.0, passes, radius, None)?;
+    let reference = run_backend(&mut lod, scene, 0.0, passes, radius, None)?;
     let mut rows = Vec::new();
-    let parry_run = run_backend(&mut parry, &scene, 0.0, passes, radius, Some(&reference))?;
+    let parry_run = run_backend(&mut parry, scene, 0.0, passes, radius, Some(&reference))?;
     rows.push(row("parry", 0.0, &parry_run, parry_build_s));
     for &th in &THRESHOLDS {
         if th == 0.0 {
             // The reference itself (its errors are zero by definition).
             rows.push(row("lod", th, &reference, lod_build_s));
         } else {
-            let r = run_backend(&mut lod, &scene, th, passes, radius, Some(&reference))?;
+            let r = run_backend(&mut lod, scene, th, passes, radius, Some(&reference))?;
             rows.push(row("lod", th, &r, lod_build_s));
         }
     }
     for r in &rows {
         println!(
-            "{:>6} {:>6.1} %: median {:>9.1} µs, p99 {:>9.1} µs, contacts {:>8.1}, node pairs {:>9.0}, wrench error median {:.3} (p90 {:.3}; own chain {:.3}), |F|/|F0| {:.3}",
+            "{:>6} {:>6.1} %: median {:>9.1} µs, p99 {:>9.1} µs, contacts {:>8.1} (max {:>7}), node pairs {:>9.0}, wrench error median {:.3} (p90 {:.3}; own chain {:.3}), |F|/|F0| {:.3}",
             r.backend,
             r.threshold * 100.0,
             r.median_s * 1e6,
             r.p99_s * 1e6,
             r.contacts_mean,
+            r.contacts_max,
             r.node_pairs_mean,
             r.wrench_error_rel_median,
             r.wrench_error_rel_p90,
@@ -144,7 +166,29 @@ pub fn run(args: &super::CollisionArgs, out: &crate::OutArgs) -> anyhow::Result<
         lod.query(&far, &params, &mut out)?;
     }
     let far_s = t.elapsed().as_secs_f64() / 10_000.0;
+    Ok(SceneMeasure {
+        rows,
+        reference,
+        lod_build_s,
+        lod_build: bs,
+        lod_memory_bytes: lod.memory_bytes(),
+        parry_build_s,
+        radius_m: radius,
+        speedup_2_5: speedup,
+        far_tool_query_s: far_s,
+    })
+}
 
+/// Runs the benchmark on one scene, or the suite (`--suite`).
+pub fn run(args: &super::CollisionArgs, out: &crate::OutArgs) -> anyhow::Result<()> {
+    if args.suite {
+        return super::suite::run(out);
+    }
+    let dir = out.dir("collision")?;
+    let scene = load_scene(args, POSES)?;
+    let passes = if out.quick { 1 } else { 3 };
+    let m = measure(&scene, passes)?;
+    let bs = &m.lod_build;
     let report = CollisionReport {
         scene: scene.name.clone(),
         description: scene.description.clone(),
@@ -152,8 +196,8 @@ pub fn run(args: &super::CollisionArgs, out: &crate::OutArgs) -> anyhow::Result<
         k_c_n_per_m: scene.k_c,
         poses: scene.poses.len(),
         passes,
-        tool_bounding_radius_m: radius,
-        wrench: "contacts -> haptic_cluster::Clusterer (K = 5, w = d + delta) -> haptic_dynamics::penalty::PenaltyModel (k_c, b_c = 0, tool at rest), torque about the tool origin; error |W - W0| / |W0| with W = (F, T / r), W0 = LOD at threshold 0. The reference warm-starts from its previous pose; the other runs cluster each pose from the reference's representatives of that pose (wrench_error_rel_*), and along their own chain of warm starts (wrench_error_rel_*_chained)",
+        tool_bounding_radius_m: m.radius_m,
+        wrench: WRENCH,
         builds: vec![
             Build {
                 backend: "lod",
@@ -176,28 +220,43 @@ pub fn run(args: &super::CollisionArgs, out: &crate::OutArgs) -> anyhow::Result<
                 mesh: "both",
                 triangles: None,
                 nodes: None,
-                build_s: lod_build_s,
-                memory_bytes: Some(lod.memory_bytes()),
+                build_s: m.lod_build_s,
+                memory_bytes: Some(m.lod_memory_bytes),
             },
             Build {
                 backend: "parry",
                 mesh: "both",
                 triangles: None,
                 nodes: None,
-                build_s: parry_build_s,
+                build_s: m.parry_build_s,
                 memory_bytes: None,
             },
         ],
-        lod_build_s,
-        parry_build_s,
-        far_tool_query_s: far_s,
-        speedup_lod_2_5_percent_vs_parry: speedup,
-        clustering_variability_rel_median: quantile(&reference.cold_errors, 0.5),
-        clustering_variability_rel_p90: quantile(&reference.cold_errors, 0.9),
-        rows: &rows,
+        lod_build_s: m.lod_build_s,
+        parry_build_s: m.parry_build_s,
+        far_tool_query_s: m.far_tool_query_s,
+        speedup_lod_2_5_percent_vs_parry: m.speedup_2_5,
+        clustering_variability_rel_median: quantile(&m.reference.cold_errors, 0.5),
+        clustering_variability_rel_p90: quantile(&m.reference.cold_errors, 0.9),
+        rows: &m.rows,
     };
     common::write_json(&dir.join("collision.json"), &report)?;
+    work_precision_chart(
+        &dir.join("collision_work_precision.svg"),
+        &scene.name,
+        &m.rows,
+    )
+}
 
+/// How the wrench and its error are computed (in every report).
+pub(super) const WRENCH: &str = "contacts -> haptic_cluster::Clusterer (K = 5, w = d + delta) -> haptic_dynamics::penalty::PenaltyModel (k_c, b_c = 0, tool at rest), torque about the tool origin; error |W - W0| / |W0| with W = (F, T / r), W0 = LOD at threshold 0. The reference warm-starts from its previous pose; the other runs cluster each pose from the reference's representatives of that pose (wrench_error_rel_*), and along their own chain of warm starts (wrench_error_rel_*_chained)";
+
+/// The work-precision chart of one scene's rows.
+pub(super) fn work_precision_chart(
+    path: &Path,
+    scene_name: &str,
+    rows: &[Row],
+) -> anyhow::Result<()> {
     let lod_rows: Vec<&Row> = rows
         .iter()
         .filter(|r| r.backend == "lod" && r.wrench_error_rel_median > 0.0)
@@ -225,11 +284,10 @@ pub fn run(args: &super::CollisionArgs, out: &crate::OutArgs) -> anyhow::Result<
         Vec::new()
     };
     plot::line_chart(
-        &dir.join("collision_work_precision.svg"),
+        path,
         &Chart {
             title: &format!(
-                "Collision queries, {}: time against wrench error (threshold 0 is the reference)",
-                scene.name
+                "Collision queries, {scene_name}: time against wrench error (threshold 0 is the reference)"
             ),
             x_label: "median wrench error relative to LOD at threshold 0",
             y_label: "median query time (ms)",
@@ -244,17 +302,18 @@ pub fn run(args: &super::CollisionArgs, out: &crate::OutArgs) -> anyhow::Result<
                 parry_points,
             ),
         ],
-    )?;
-    Ok(())
+    )
 }
 
 /// What one run measured.
 #[derive(Clone)]
-struct RunResult {
+pub(super) struct RunResult {
     times_s: Vec<Real>,
     contacts_mean: Real,
+    contacts_max: usize,
     node_pairs_mean: Real,
-    wrenches: Vec<[Real; 6]>,
+    /// The wrench of each pose `(F, T)` (first pass).
+    pub wrenches: Vec<[Real; 6]>,
     /// The representatives of each pose (first pass), which seed the other runs' clustering.
     representatives: Vec<Vec<Contact>>,
     /// Error per pose, clustered from the reference's representatives of the same pose.
@@ -268,7 +327,7 @@ struct RunResult {
 }
 
 /// The `f`-quantile of `v` (nearest rank), NaN when empty.
-fn quantile(v: &[Real], f: Real) -> Real {
+pub(super) fn quantile(v: &[Real], f: Real) -> Real {
     let mut v = v.to_vec();
     v.sort_by(|a, b| a.total_cmp(b));
     if v.is_empty() {
@@ -287,6 +346,7 @@ fn row(backend: &'static str, threshold: Real, r: &RunResult, build_s: Real) -> 
         median_s: q(t, 0.5),
         p99_s: q(t, 0.99),
         contacts_mean: r.contacts_mean,
+        contacts_max: r.contacts_max,
         node_pairs_mean: r.node_pairs_mean,
         wrench_error_rel_median: q(e, 0.5),
         wrench_error_rel_p90: q(e, 0.9),
@@ -298,22 +358,24 @@ fn row(backend: &'static str, threshold: Real, r: &RunResult, build_s: Real) -> 
     }
 }
 
-/// One back-end at one threshold, in `collision.json`.
-#[derive(Serialize)]
-struct Row {
-    backend: &'static str,
-    threshold: Real,
-    median_s: Real,
-    p99_s: Real,
-    contacts_mean: Real,
-    node_pairs_mean: Real,
-    wrench_error_rel_median: Real,
-    wrench_error_rel_p90: Real,
-    wrench_error_rel_max: Real,
-    wrench_error_rel_median_chained: Real,
-    wrench_error_rel_p90_chained: Real,
-    force_ratio_median: Real,
-    build_s: Real,
+/// One back-end at one threshold, in `collision.json` and `suite.json`.
+#[derive(Serialize, Clone)]
+pub(super) struct Row {
+    pub backend: &'static str,
+    pub threshold: Real,
+    pub median_s: Real,
+    pub p99_s: Real,
+    pub contacts_mean: Real,
+    /// Most raw contacts of one query.
+    pub contacts_max: usize,
+    pub node_pairs_mean: Real,
+    pub wrench_error_rel_median: Real,
+    pub wrench_error_rel_p90: Real,
+    pub wrench_error_rel_max: Real,
+    pub wrench_error_rel_median_chained: Real,
+    pub wrench_error_rel_p90_chained: Real,
+    pub force_ratio_median: Real,
+    pub build_s: Real,
 }
 
 /// One hierarchy (or back-end) build.
@@ -373,7 +435,7 @@ where
     // headline error), one along this run's own chain of warm starts, as a runtime would run.
     let mut seeded = WrenchPipeline::new(scene, radius)?;
     let mut chained = WrenchPipeline::new(scene, radius)?;
-    let (mut contacts, mut node_pairs) = (0usize, 0u64);
+    let (mut contacts, mut node_pairs, mut contacts_max) = (0usize, 0u64, 0usize);
     let mut cold_errors = Vec::new();
     for pass in 0..passes {
         for (i, pose) in scene.poses.iter().enumerate() {
@@ -384,6 +446,7 @@ where
                 continue;
             }
             contacts += out.len();
+            contacts_max = contacts_max.max(out.len());
             node_pairs += st.node_pairs_tested;
             let (w, reps) = chained.wrench(&out, pose, scene.delta_m)?;
             chained_wrenches.push(w);
@@ -427,6 +490,7 @@ where
         force_ratios,
         times_s,
         contacts_mean: contacts as Real / n,
+        contacts_max,
         node_pairs_mean: node_pairs as Real / n,
         errors: errors_against(&wrenches),
         errors_chained: errors_against(&chained_wrenches),
@@ -437,7 +501,7 @@ where
 }
 
 /// `|W − W₀| / |W₀|` with torques divided by `lever`; `None` when both wrenches are zero.
-fn relative_error(w: &[Real; 6], w0: &[Real; 6], lever: Real) -> Option<Real> {
+pub(super) fn relative_error(w: &[Real; 6], w0: &[Real; 6], lever: Real) -> Option<Real> {
     let scale = |i: usize| if i < 3 { 1.0 } else { 1.0 / lever };
     let diff = (0..6)
         .map(|i| ((w[i] - w0[i]) * scale(i)).powi(2))
@@ -503,7 +567,7 @@ impl WrenchPipeline {
     }
 }
 
-fn load_scene(args: &super::CollisionArgs) -> anyhow::Result<Scene> {
+pub(super) fn load_scene(args: &super::CollisionArgs, n_poses: usize) -> anyhow::Result<Scene> {
     let meshes = common::meshes_dir();
     match args.scene.as_str() {
         "jaws" => {
@@ -515,7 +579,7 @@ fn load_scene(args: &super::CollisionArgs) -> anyhow::Result<Scene> {
             )?;
             Ok(Scene {
                 name: "jaws".into(),
-                poses: jaws_poses(&com),
+                poses: crate::fixture_poses::jaws_poses(&com, n_poses),
                 tool,
                 obstacle,
                 delta_m: 1e-3,
@@ -535,7 +599,7 @@ fn load_scene(args: &super::CollisionArgs) -> anyhow::Result<Scene> {
                 UnitQuaternion::from_scaled_axis(Vec3::new(0.0, 0.0, 1.0) * std::f64::consts::PI)
                     * UnitQuaternion::from_scaled_axis(Vec3::new(0.35, 0.0, 0.0));
             let delta = 1e-3;
-            let poses = approach_poses(&tool, &obstacle, orientation, Vec3::y(), delta)?;
+            let poses = approach_poses(&tool, &obstacle, orientation, Vec3::y(), delta, n_poses)?;
             Ok(Scene {
                 name: "spoon-cup".into(),
                 tool,
@@ -562,6 +626,7 @@ fn load_scene(args: &super::CollisionArgs) -> anyhow::Result<Scene> {
                 UnitQuaternion::identity(),
                 Vec3::z(),
                 delta,
+                n_poses,
             )?;
             Ok(Scene {
                 name: format!("{}+{}", file_name(Path::new(a)), file_name(Path::new(b))),
@@ -608,12 +673,13 @@ pub(super) fn jaws_poses(com: &Vec3) -> Vec<Pose> {
 /// A tool approaching an obstacle along `−up` with a fixed orientation: the first offset with a
 /// contact within `δ` (LOD at threshold 0; a march, then bisection), then 200 poses around it: ±`δ` along
 /// `up`, ±2δ sideways, ±0.3° of tilt.
-fn approach_poses(
+pub(super) fn approach_poses(
     tool: &TriMesh,
     obstacle: &TriMesh,
     orientation: UnitQuaternion<Real>,
     up: Vec3,
     delta: Real,
+    n_poses: usize,
 ) -> anyhow::Result<Vec<Pose>> {
     let mut lod = LodBackend::new(tool, &[(obstacle.clone(), Pose::identity())])?;
     let (lo, hi) = obstacle.bounding_box();
@@ -667,9 +733,9 @@ fn approach_poses(
         let s1 = (s - up * up.dot(&s)).normalize();
         (s1, up.cross(&s1))
     };
-    Ok((0..POSES)
+    Ok((0..n_poses)
         .map(|i| {
-            let s = i as Real / POSES as Real * std::f64::consts::TAU;
+            let s = i as Real / n_poses as Real * std::f64::consts::TAU;
             let dp = up * (delta * (3.0 * s).sin())
                 + side.0 * (2.0 * delta * s.sin())
                 + side.1 * (2.0 * delta * (2.0 * s).cos());

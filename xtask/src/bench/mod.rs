@@ -4,6 +4,8 @@
 mod collision;
 mod perf;
 mod realtime;
+mod shapes;
+mod suite;
 
 use crate::OutArgs;
 
@@ -39,6 +41,9 @@ pub struct CollisionArgs {
     /// Unit scale of meshes given by path (metres per file unit).
     #[arg(long)]
     pub scale: Option<f64>,
+    /// Every scene of the generalization suite (`suite.json`), instead of one scene.
+    #[arg(long)]
+    pub suite: bool,
 }
 
 /// Runs a benchmark.

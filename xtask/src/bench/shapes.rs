@@ -1,0 +1,948 @@
+//! Procedural closed triangle meshes for the collision benchmark suite: a box, an involute spur
+//! gear (alone or as a meshing pair), a threaded rod and its nut.
+//!
+//! Every mesh is closed and watertight (every edge shared by exactly two triangles, vertices
+//! shared along seams), its triangles counter-clockwise seen from outside, and it is built with
+//! [`DegeneratePolicy::Reject`], so a degenerate triangle is an error rather than silently
+//! dropped. Lengths are in metres, angles in radians.
+//!
+//! `density` scales the tessellation: 1 is the coarse one, 2 doubles the subdivisions in both
+//! surface directions (about 4× the triangles), and so on.
+
+use std::f64::consts::{PI, TAU};
+
+use anyhow::{Context, ensure};
+use haptic_collision::{DegeneratePolicy, TriMesh};
+use haptic_core::{Real, Vec3};
+
+/// Pressure angle of the gears' involute flanks (rad): 20°.
+const PRESSURE_ANGLE: Real = PI / 9.0;
+
+/// An axis-aligned box centred at the origin.
+///
+/// - `half_extents`: half the box's size along x, y and z (m), each positive.
+/// - `density`: each face is a grid of `4·density × 4·density` quads, two triangles each, so the
+///   box has `192·density²` triangles.
+///
+/// # Errors
+/// A half extent that is not positive and finite, `density == 0`, or too many vertices for `u32`
+/// indices.
+pub fn box_mesh(half_extents: Vec3, density: usize) -> anyhow::Result<TriMesh> {
+    check_density(density)?;
+    for (name, &h) in ["half_extents.x", "half_extents.y", "half_extents.z"]
+        .iter()
+        .zip(half_extents.iter())
+    {
+        check_positive(name, h)?;
+    }
+    let n = 4 * density;
+    ensure_indexable(6 * (n + 1) * (n + 1))?;
+    // Lattice coordinate k ∈ 0..=n along `axis` → position (m); exact at both ends.
+    let coordinate = |axis: usize, k: usize| {
+        -half_extents[axis] + 2.0 * half_extents[axis] * (k as Real / n as Real)
+    };
+    // Surface vertices are the lattice points with a coordinate at 0 or n, each created once, so
+    // the faces share their edges and corners.
+    let mut index = std::collections::HashMap::<[usize; 3], u32>::new();
+    let mut vertices = Vec::new();
+    let mut vertex = |k: [usize; 3]| -> u32 {
+        *index.entry(k).or_insert_with(|| {
+            vertices.push(Vec3::new(
+                coordinate(0, k[0]),
+                coordinate(1, k[1]),
+                coordinate(2, k[2]),
+            ));
+            (vertices.len() - 1) as u32
+        })
+    };
+    let mut triangles = Vec::with_capacity(12 * n * n);
+    for axis in 0..3 {
+        let (b, c) = ((axis + 1) % 3, (axis + 2) % 3);
+        for side in [0, n] {
+            // Face axes (u, v) with u × v along the outward normal: e_b × e_c = +e_axis.
+            let (u, v) = if side == n { (b, c) } else { (c, b) };
+            for i in 0..n {
+                for j in 0..n {
+                    let corner = |di: usize, dj: usize| {
+                        let mut k = [0; 3];
+                        k[axis] = side;
+                        k[u] = i + di;
+                        k[v] = j + dj;
+                        k
+                    };
+                    let p00 = vertex(corner(0, 0));
+                    let p10 = vertex(corner(1, 0));
+                    let p11 = vertex(corner(1, 1));
+                    let p01 = vertex(corner(0, 1));
+                    triangles.push([p00, p10, p11]);
+                    triangles.push([p00, p11, p01]);
+                }
+            }
+        }
+    }
+    build("box", vertices, triangles)
+}
+
+/// A spur gear with involute teeth, centred at the origin, axis z, faces at `z = ±face_width/2`.
+///
+/// Tooth 0 is centred on +x. Standard proportions: pitch radius `m·z/2`, addendum `m`, dedendum
+/// `1.25·m`, 20° pressure angle, tooth thickness half the circular pitch at the pitch circle.
+/// The flanks are involutes of the base circle; below the base circle (gears of up to 41 teeth)
+/// they continue as a short fillet that widens the tooth quadratically towards the root circle,
+/// by a quarter of the remaining gap (clear of the mating tip's path, checked for 20 and 35 teeth
+/// meshing at zero clearance, and for 20 with 20). The outline is star-shaped about the centre
+/// (its polar angle increases strictly along it), so the caps are fans from the centre.
+///
+/// - `teeth`: number of teeth `z` (at least 3).
+/// - `module_m`: module `m` (m), the pitch diameter per tooth.
+/// - `face_width_m`: thickness along z (m).
+/// - `density`: per tooth, `8·density` outline points per flank and `4·density` per tip and root
+///   arc (`24·density` per tooth); side wall with `4·density` layers along z. Triangles:
+///   `48·density·teeth·(4·density + 1)` (4 800 at 20 teeth, density 1; 17 280 at density 2).
+///
+/// # Errors
+/// Non-positive or non-finite sizes, fewer than 3 teeth, teeth so few that they come to a point
+/// or leave no root gap, `density == 0`, or too many vertices for `u32` indices.
+pub fn spur_gear(
+    teeth: usize,
+    module_m: Real,
+    face_width_m: Real,
+    density: usize,
+) -> anyhow::Result<TriMesh> {
+    check_density(density)?;
+    check_positive("face_width_m", face_width_m)?;
+    let profile = GearProfile::new(teeth, module_m)?;
+    // 4·density layers rather than 2·density: with fan caps (which refine only around), doubling
+    // the density then multiplies the triangle count by 3.6 instead of 3.3.
+    star_prism(
+        "spur gear",
+        &profile.outline(density),
+        face_width_m,
+        4 * density,
+    )
+}
+
+/// Two meshing spur gears of the same module and face width: gear a at the origin (as
+/// [`spur_gear`]), gear b at distance `m·(z_a + z_b)/2 + clearance` along +x, rotated about z so
+/// that its teeth sit centred in a's gaps.
+///
+/// - `teeth_a`, `teeth_b`: numbers of teeth.
+/// - `module_m`: module (m); `face_width_m`: thickness along z (m).
+/// - `clearance_m`: extra centre distance (m, ≥ 0). It opens a radial tip clearance of
+///   `0.25·m + clearance` and, per flank, a backlash of about `clearance·sin 20°` normal to the
+///   flanks; 0 puts the flanks in tangent contact.
+/// - `density`: as [`spur_gear`].
+///
+/// Returns `(a, b, centre_b, angle_b)`: both meshes in their own frames (each centred at its
+/// origin), and b's pose in a's frame: a point `p` of b is at `centre_b + R_z(angle_b)·p`
+/// (`centre_b` in m, `angle_b` in rad, in `[0, 2π/z_b)`).
+///
+/// # Errors
+/// As [`spur_gear`], or a clearance that is negative or not finite.
+pub fn gear_pair(
+    teeth_a: usize,
+    teeth_b: usize,
+    module_m: Real,
+    face_width_m: Real,
+    clearance_m: Real,
+    density: usize,
+) -> anyhow::Result<(TriMesh, TriMesh, Vec3, Real)> {
+    ensure!(
+        clearance_m.is_finite() && clearance_m >= 0.0,
+        "clearance_m = {clearance_m} must be finite and not negative"
+    );
+    let a = spur_gear(teeth_a, module_m, face_width_m, density).context("gear a")?;
+    let b = spur_gear(teeth_b, module_m, face_width_m, density).context("gear b")?;
+    let (centre, angle) = gear_pair_pose(teeth_a, teeth_b, module_m, clearance_m);
+    Ok((a, b, centre, angle))
+}
+
+/// Pose of gear b in gear a's frame for [`gear_pair`]: centre (m) and rotation about z (rad).
+fn gear_pair_pose(
+    teeth_a: usize,
+    teeth_b: usize,
+    module_m: Real,
+    clearance_m: Real,
+) -> (Vec3, Real) {
+    let distance = module_m * (teeth_a + teeth_b) as Real / 2.0 + clearance_m;
+    // Gear a's tooth 0 lies on +x, on the line of centres, facing b. Gear b must therefore show
+    // the centre of a gap in that direction, which is angle π in b's own frame. b's teeth are
+    // centred at β + k·2π/z_b and its gaps half a tooth pitch further, at β + (k + ½)·2π/z_b.
+    // Solving β + (k + ½)·2π/z_b = π: β = π − π/z_b modulo b's pitch 2π/z_b. With z_b odd, π is
+    // an odd number of half pitches, so b's gaps already lie at π and β = 0; with z_b even, π is
+    // a whole number of pitches (a tooth faces a), so b turns by half a pitch, β = π/z_b. The
+    // pair is then symmetric about the x axis and the backlash is shared equally by both flanks.
+    let angle = if teeth_b % 2 == 0 {
+        PI / teeth_b as Real
+    } else {
+        0.0
+    };
+    (Vec3::new(distance, 0.0, 0.0), angle)
+}
+
+/// An externally threaded rod (a bolt without head), axis z from 0 to `length_m`, with a
+/// right-handed single-start thread (the crest climbs one pitch per counter-clockwise turn
+/// about +z).
+///
+/// The lateral surface is `r(θ, z)` = the thread profile at the phase
+/// `s = fract((z − pitch·θ/2π)/pitch)`: a symmetric trapezoid with a flat crest of 1/8 pitch at
+/// the major radius, a flat root of 1/4 pitch at the minor radius, and straight flanks between.
+///
+/// - `major_radius_m`: crest radius (m); `minor_radius_m`: root radius (m), `0 < minor < major`.
+/// - `pitch_m`: axial distance between neighbouring crests (m); `length_m`: rod length (m).
+/// - `density`: `32·density` segments around, vertex rows on the lattice
+///   `z = j·pitch/(8·density)` (`8·density` per pitch) plus a row exactly at `z = length` (the
+///   lattice row just below is dropped if it would leave a row thinner than a quarter of the
+///   spacing); the ends are fans to a vertex on the axis. Triangles:
+///   `64·density·(rows + 1)` with `rows` intervals along z (8 256 for the M8-like rod of 16
+///   pitches at density 1, 32 896 at density 2).
+///
+/// Rows on a common lattice make a [`threaded_nut`] of the same thread and density, placed on the
+/// rod at an axial offset that is a multiple of the row spacing, conform to it vertex for vertex
+/// (but for the nut's last row when its length is off the lattice).
+///
+/// # Errors
+/// Sizes that are not positive and finite, `minor ≥ major`, `density == 0`, or too many vertices
+/// for `u32` indices.
+pub fn threaded_rod(
+    major_radius_m: Real,
+    minor_radius_m: Real,
+    pitch_m: Real,
+    length_m: Real,
+    density: usize,
+) -> anyhow::Result<TriMesh> {
+    check_density(density)?;
+    check_positive("length_m", length_m)?;
+    let thread = ThreadProfile::new(major_radius_m, minor_radius_m, pitch_m)?;
+    let segments = 32 * density;
+    let rows = thread.rows(length_m, density);
+    ensure_indexable(segments * rows.len() + 2)?;
+    let mut vertices = Vec::with_capacity(segments * rows.len() + 2);
+    let mut triangles = Vec::with_capacity(2 * segments * rows.len());
+    let side = lateral_grid(
+        &mut vertices,
+        &mut triangles,
+        segments,
+        &rows,
+        |theta, z| thread.radius(theta, z),
+        true,
+    );
+    let (bottom, top) = (vertices.len() as u32, vertices.len() as u32 + 1);
+    vertices.push(Vec3::zeros());
+    vertices.push(Vec3::new(0.0, 0.0, length_m));
+    let last = side.last_row();
+    for i in 0..segments {
+        triangles.push([bottom, side.id(0, i + 1), side.id(0, i)]);
+        triangles.push([top, side.id(last, i), side.id(last, i + 1)]);
+    }
+    build("threaded rod", vertices, triangles)
+}
+
+/// A cylindrical nut, axis z from 0 to `length_m`, whose internal thread mates
+/// [`threaded_rod`]'s: the inner surface is `r_in(θ, z) = r(θ, z) + clearance` with the rod's
+/// profile `r` and phase convention, so a rod of the same thread at the identity pose sits in the
+/// nut with a radial gap of `clearance_m` everywhere.
+///
+/// - `major_radius_m`, `minor_radius_m`, `pitch_m`: the mating rod's thread (m).
+/// - `length_m`: nut length along z (m).
+/// - `outer_radius_m`: radius of the outer cylinder (m), more than `major + clearance`.
+/// - `clearance_m`: radial gap to the rod (m, ≥ 0).
+/// - `density`: inner surface on the rod's grid (`32·density` segments, rows on the rod's lattice
+///   plus `z = length`); outer cylinder with the same `32·density` angles and `2·density` rows;
+///   flat annular end caps joining the inner and outer rings with one quad per segment.
+///   Triangles: `64·density·(rows + 2·density + 2)` with `rows` intervals of the inner surface
+///   (3 520 for an 8 mm nut of 1.25 mm pitch at density 1, 13 952 at density 2).
+///
+/// The inner surface is the outside of the solid: its normals point towards the axis.
+///
+/// # Errors
+/// Sizes that are not positive and finite, `minor ≥ major`, a negative clearance, an outer
+/// radius not above `major + clearance`, `density == 0`, or too many vertices for `u32` indices.
+pub fn threaded_nut(
+    major_radius_m: Real,
+    minor_radius_m: Real,
+    pitch_m: Real,
+    length_m: Real,
+    outer_radius_m: Real,
+    clearance_m: Real,
+    density: usize,
+) -> anyhow::Result<TriMesh> {
+    check_density(density)?;
+    check_positive("length_m", length_m)?;
+    let thread = ThreadProfile::new(major_radius_m, minor_radius_m, pitch_m)?;
+    ensure!(
+        clearance_m.is_finite() && clearance_m >= 0.0,
+        "clearance_m = {clearance_m} must be finite and not negative"
+    );
+    ensure!(
+        outer_radius_m.is_finite() && outer_radius_m > major_radius_m + clearance_m,
+        "outer_radius_m = {outer_radius_m} must exceed major_radius_m + clearance_m = {}",
+        major_radius_m + clearance_m
+    );
+    let segments = 32 * density;
+    let inner_rows = thread.rows(length_m, density);
+    let outer_layers = 2 * density;
+    let outer_rows: Vec<Real> = (0..=outer_layers)
+        .map(|j| length_m * (j as Real / outer_layers as Real))
+        .collect();
+    let vertex_count = segments * (inner_rows.len() + outer_rows.len());
+    ensure_indexable(vertex_count)?;
+    let mut vertices = Vec::with_capacity(vertex_count);
+    let mut triangles = Vec::with_capacity(2 * segments * (inner_rows.len() + outer_rows.len()));
+    let inner = lateral_grid(
+        &mut vertices,
+        &mut triangles,
+        segments,
+        &inner_rows,
+        |theta, z| thread.radius(theta, z) + clearance_m,
+        false,
+    );
+    let outer = lateral_grid(
+        &mut vertices,
+        &mut triangles,
+        segments,
+        &outer_rows,
+        |_, _| outer_radius_m,
+        true,
+    );
+    let (inner_top, outer_top) = (inner.last_row(), outer.last_row());
+    for k in 0..segments {
+        let (i0, i1) = (inner.id(0, k), inner.id(0, k + 1));
+        let (o0, o1) = (outer.id(0, k), outer.id(0, k + 1));
+        // Bottom cap, normal −z.
+        triangles.push([i0, o1, o0]);
+        triangles.push([i0, i1, o1]);
+        let (i0, i1) = (inner.id(inner_top, k), inner.id(inner_top, k + 1));
+        let (o0, o1) = (outer.id(outer_top, k), outer.id(outer_top, k + 1));
+        // Top cap, normal +z.
+        triangles.push([i0, o0, o1]);
+        triangles.push([i0, o1, i1]);
+    }
+    build("threaded nut", vertices, triangles)
+}
+
+/// Tooth outline of an involute spur gear (see [`spur_gear`]), tooth 0 centred on +x.
+#[derive(Debug, Clone, Copy)]
+struct GearProfile {
+    /// Number of teeth.
+    teeth: usize,
+    /// Root circle radius (m).
+    root_radius: Real,
+    /// Base circle radius (m), the involutes' origin.
+    base_radius: Real,
+    /// Tip (addendum) circle radius (m).
+    tip_radius: Real,
+    /// Half-angle of a tooth at the base circle (rad).
+    base_half_angle: Real,
+    /// Extra half-angle of the root fillet at the root circle (rad; 0 when the root circle is not
+    /// below the base circle).
+    fillet: Real,
+}
+
+/// The involute function `tan α − α` (rad).
+fn involute(alpha: Real) -> Real {
+    alpha.tan() - alpha
+}
+
+impl GearProfile {
+    /// The profile of a gear of `teeth` teeth and module `module_m` (m).
+    fn new(teeth: usize, module_m: Real) -> anyhow::Result<Self> {
+        ensure!(teeth >= 3, "a gear needs at least 3 teeth, got {teeth}");
+        check_positive("module_m", module_m)?;
+        let z = teeth as Real;
+        let pitch_radius = module_m * z / 2.0;
+        let base_radius = pitch_radius * PRESSURE_ANGLE.cos();
+        let root_radius = pitch_radius - 1.25 * module_m;
+        // Half the tooth thickness at the pitch circle is a quarter of the circular pitch, π/(2z);
+        // the involute has turned by inv(α) between the base and the pitch circle.
+        let base_half_angle = PI / (2.0 * z) + involute(PRESSURE_ANGLE);
+        let fillet = if root_radius < base_radius {
+            0.25 * (PI / z - base_half_angle)
+        } else {
+            0.0
+        };
+        let profile = Self {
+            teeth,
+            root_radius,
+            base_radius,
+            tip_radius: pitch_radius + module_m,
+            base_half_angle,
+            fillet,
+        };
+        ensure!(
+            profile.half_angle(profile.tip_radius) > 0.0,
+            "{teeth} teeth come to a point below the tip circle"
+        );
+        ensure!(
+            profile.half_angle(root_radius) < PI / z
+                && (root_radius >= base_radius || fillet > 0.0),
+            "{teeth} teeth leave no gap at the root circle"
+        );
+        Ok(profile)
+    }
+
+    /// Half-angle (rad) of a tooth at radius `r` (m) between the root and the tip circle:
+    /// strictly decreasing in `r`.
+    fn half_angle(&self, r: Real) -> Real {
+        if r >= self.base_radius {
+            self.base_half_angle - involute((self.base_radius / r).acos())
+        } else {
+            let t = (self.base_radius - r) / (self.base_radius - self.root_radius);
+            self.base_half_angle + self.fillet * t * t
+        }
+    }
+
+    /// The outline's radius r(φ) (m) at the polar angle `phi` (rad).
+    #[cfg(test)]
+    fn radius(&self, phi: Real) -> Real {
+        let pitch_angle = TAU / self.teeth as Real;
+        let x = phi.rem_euclid(pitch_angle);
+        // Angle from the nearest tooth's centre line, in [0, π/z].
+        let local = x.min(pitch_angle - x);
+        if local <= self.half_angle(self.tip_radius) {
+            return self.tip_radius;
+        }
+        if local >= self.half_angle(self.root_radius) {
+            return self.root_radius;
+        }
+        // On a flank: the half-angle decreases strictly with the radius, bisect for it.
+        let (mut lo, mut hi) = (self.root_radius, self.tip_radius);
+        for _ in 0..64 {
+            let mid = lo + 0.5 * (hi - lo);
+            if self.half_angle(mid) > local {
+                lo = mid;
+            } else {
+                hi = mid;
+            }
+        }
+        lo + 0.5 * (hi - lo)
+    }
+
+    /// The outline as (x, y) points (m), counter-clockwise, polar angle strictly increasing. Per
+    /// tooth: `4·density` points on the root arc before it, `8·density` up its leading flank
+    /// (uniform in radius), `4·density` on its tip arc and `8·density` down its trailing flank;
+    /// each piece includes its first point and not its last (the next piece's first).
+    fn outline(&self, density: usize) -> Vec<[Real; 2]> {
+        let (arc, flank) = (4 * density, 8 * density);
+        let pitch_angle = TAU / self.teeth as Real;
+        let root_half = self.half_angle(self.root_radius);
+        let tip_half = self.half_angle(self.tip_radius);
+        let span = self.tip_radius - self.root_radius;
+        let frac = |i: usize, n: usize| i as Real / n as Real;
+        let mut polar: Vec<(Real, Real)> = Vec::with_capacity(self.teeth * 2 * (arc + flank));
+        for k in 0..self.teeth {
+            let centre = pitch_angle * k as Real;
+            // Root arc, from the previous tooth's trailing flank to this tooth's leading flank.
+            let (a0, a1) = (centre - pitch_angle + root_half, centre - root_half);
+            polar.extend((0..arc).map(|i| (self.root_radius, a0 + (a1 - a0) * frac(i, arc))));
+            polar.extend((0..flank).map(|i| {
+                let r = self.root_radius + span * frac(i, flank);
+                (r, centre - self.half_angle(r))
+            }));
+            polar.extend((0..arc).map(|i| {
+                (
+                    self.tip_radius,
+                    centre - tip_half + 2.0 * tip_half * frac(i, arc),
+                )
+            }));
+            polar.extend((0..flank).map(|i| {
+                let r = self.tip_radius - span * frac(i, flank);
+                (r, centre + self.half_angle(r))
+            }));
+        }
+        polar
+            .into_iter()
+            .map(|(r, a)| [r * a.cos(), r * a.sin()])
+            .collect()
+    }
+}
+
+/// A closed prism along z, `z ∈ [−height/2, height/2]`, over an outline (m) that is
+/// counter-clockwise and star-shaped about the origin: side wall with `layers` layers, caps as
+/// fans from a vertex on the axis.
+fn star_prism(
+    what: &str,
+    outline: &[[Real; 2]],
+    height: Real,
+    layers: usize,
+) -> anyhow::Result<TriMesh> {
+    let n = outline.len();
+    ensure_indexable(n * (layers + 1) + 2)?;
+    let half = height / 2.0;
+    let mut vertices = Vec::with_capacity(n * (layers + 1) + 2);
+    for j in 0..=layers {
+        let z = -half + height * (j as Real / layers as Real);
+        vertices.extend(outline.iter().map(|&[x, y]| Vec3::new(x, y, z)));
+    }
+    let (bottom, top) = (vertices.len() as u32, vertices.len() as u32 + 1);
+    vertices.push(Vec3::new(0.0, 0.0, -half));
+    vertices.push(Vec3::new(0.0, 0.0, half));
+    let id = |j: usize, i: usize| (j * n + i % n) as u32;
+    let mut triangles = Vec::with_capacity(2 * n * (layers + 1));
+    for j in 0..layers {
+        for i in 0..n {
+            // Along the outline then up: (edge × z) points out of a counter-clockwise outline.
+            let (a, b, c, d) = (id(j, i), id(j, i + 1), id(j + 1, i + 1), id(j + 1, i));
+            triangles.push([a, b, c]);
+            triangles.push([a, c, d]);
+        }
+    }
+    for i in 0..n {
+        triangles.push([bottom, id(0, i + 1), id(0, i)]);
+        triangles.push([top, id(layers, i), id(layers, i + 1)]);
+    }
+    build(what, vertices, triangles)
+}
+
+/// The thread of [`threaded_rod`] and [`threaded_nut`].
+#[derive(Debug, Clone, Copy)]
+struct ThreadProfile {
+    /// Crest radius (m).
+    major: Real,
+    /// Root radius (m).
+    minor: Real,
+    /// Axial distance between crests (m).
+    pitch: Real,
+}
+
+impl ThreadProfile {
+    /// Length of the crest flat, in pitches.
+    const CREST: Real = 1.0 / 8.0;
+    /// Length of each flank, in pitches.
+    const FLANK: Real = 5.0 / 16.0;
+    /// Length of the root flat, in pitches.
+    const ROOT: Real = 1.0 / 4.0;
+
+    /// A thread of crest radius `major` (m), root radius `minor` (m) and pitch `pitch` (m).
+    fn new(major: Real, minor: Real, pitch: Real) -> anyhow::Result<Self> {
+        check_positive("minor_radius_m", minor)?;
+        check_positive("major_radius_m", major)?;
+        check_positive("pitch_m", pitch)?;
+        ensure!(
+            minor < major,
+            "minor_radius_m = {minor} must be below major_radius_m = {major}"
+        );
+        Ok(Self {
+            major,
+            minor,
+            pitch,
+        })
+    }
+
+    /// Height of the profile at phase `s` ∈ [0, 1] as a fraction of the thread depth: 1 on the
+    /// crest (`s` ∈ [0, 1/8)), falling along a flank to 0 on the root ([7/16, 11/16)), rising
+    /// back to 1 at `s = 1`.
+    fn depth_fraction(s: Real) -> Real {
+        let falling = Self::CREST;
+        let root = falling + Self::FLANK;
+        let rising = root + Self::ROOT;
+        if s < falling {
+            1.0
+        } else if s < root {
+            1.0 - (s - falling) / Self::FLANK
+        } else if s < rising {
+            0.0
+        } else {
+            (s - rising) / Self::FLANK
+        }
+    }
+
+    /// Radius r(θ, z) (m) of the rod's thread surface at angle `theta` (rad) and height `z` (m).
+    fn radius(&self, theta: Real, z: Real) -> Real {
+        let s = (z / self.pitch - theta / TAU).rem_euclid(1.0);
+        self.minor + (self.major - self.minor) * Self::depth_fraction(s)
+    }
+
+    /// Heights (m) of the vertex rows from 0 to `length` (m): the lattice `j·pitch/(8·density)`
+    /// below `length`, then `length` itself. The last lattice row is dropped when it lies within
+    /// a quarter of the spacing below `length`, so that no row is thinner than that.
+    fn rows(&self, length: Real, density: usize) -> Vec<Real> {
+        let step = self.pitch / (8 * density) as Real;
+        let full = (length / step).floor() as usize;
+        let remainder = length - step * full as Real;
+        let keep = if full > 0 && remainder < 0.25 * step {
+            full
+        } else {
+            full + 1
+        };
+        let mut rows: Vec<Real> = (0..keep).map(|j| step * j as Real).collect();
+        rows.push(length);
+        rows
+    }
+}
+
+/// Vertices of a lateral grid appended by [`lateral_grid`]: row `j`, angle index `i`.
+#[derive(Debug, Clone, Copy)]
+struct Grid {
+    /// Index of the grid's first vertex.
+    first: usize,
+    /// Vertices per row.
+    segments: usize,
+    /// Number of rows.
+    rows: usize,
+}
+
+impl Grid {
+    /// Index of the vertex in row `j` at angle index `i` (taken modulo `segments`, so the seam
+    /// at θ = 2π reuses the vertices at θ = 0).
+    fn id(&self, j: usize, i: usize) -> u32 {
+        (self.first + j * self.segments + i % self.segments) as u32
+    }
+
+    /// Index of the last row.
+    fn last_row(&self) -> usize {
+        self.rows - 1
+    }
+}
+
+/// Appends a surface of revolution-like grid `r(θ, z)` (m) sampled at the angles
+/// `θ_i = 2π·i/segments` and the heights `rows` (m, increasing), with its quads as two
+/// triangles each, facing away from the axis if `outward`, towards it otherwise. The caller has
+/// checked that the indices fit `u32`.
+fn lateral_grid(
+    vertices: &mut Vec<Vec3>,
+    triangles: &mut Vec<[u32; 3]>,
+    segments: usize,
+    rows: &[Real],
+    radius: impl Fn(Real, Real) -> Real,
+    outward: bool,
+) -> Grid {
+    let grid = Grid {
+        first: vertices.len(),
+        segments,
+        rows: rows.len(),
+    };
+    for &z in rows {
+        for i in 0..segments {
+            let theta = TAU * (i as Real / segments as Real);
+            let r = radius(theta, z);
+            vertices.push(Vec3::new(r * theta.cos(), r * theta.sin(), z));
+        }
+    }
+    for j in 0..rows.len().saturating_sub(1) {
+        for i in 0..segments {
+            let (a, b) = (grid.id(j, i), grid.id(j, i + 1));
+            let (c, d) = (grid.id(j + 1, i + 1), grid.id(j + 1, i));
+            // θ then z: ∂θ × ∂z points away from the axis.
+            if outward {
+                triangles.push([a, b, c]);
+                triangles.push([a, c, d]);
+            } else {
+                triangles.push([a, c, b]);
+                triangles.push([a, d, c]);
+            }
+        }
+    }
+    grid
+}
+
+/// The validated mesh, degenerate triangles rejected (none are expected).
+fn build(what: &str, vertices: Vec<Vec3>, triangles: Vec<[u32; 3]>) -> anyhow::Result<TriMesh> {
+    let (mesh, _dropped) = TriMesh::new(vertices, triangles, DegeneratePolicy::Reject)
+        .with_context(|| format!("building the {what} mesh"))?;
+    Ok(mesh)
+}
+
+/// Checks that the tessellation density is at least 1.
+fn check_density(density: usize) -> anyhow::Result<()> {
+    ensure!(density >= 1, "density must be at least 1, got {density}");
+    Ok(())
+}
+
+/// Checks that a size is positive and finite.
+fn check_positive(what: &str, value: Real) -> anyhow::Result<()> {
+    ensure!(
+        value.is_finite() && value > 0.0,
+        "{what} = {value} must be positive and finite"
+    );
+    Ok(())
+}
+
+/// Checks that `count` vertices can be addressed by `u32` indices.
+fn ensure_indexable(count: usize) -> anyhow::Result<()> {
+    ensure!(
+        u32::try_from(count).is_ok(),
+        "{count} vertices do not fit u32 indices: lower the density"
+    );
+    Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use std::collections::HashMap;
+
+    use super::*;
+
+    /// Millimetre (m).
+    const MM: Real = 1e-3;
+
+    /// Asserts that every directed edge appears once and its reverse once: closed and
+    /// consistently oriented. Also checks the mesh's own boundary count.
+    fn assert_closed(mesh: &TriMesh) {
+        assert_eq!(mesh.boundary_edge_count(), 0);
+        let mut directed = HashMap::<(u32, u32), usize>::new();
+        for t in mesh.triangles() {
+            for (a, b) in [(t[0], t[1]), (t[1], t[2]), (t[2], t[0])] {
+                *directed.entry((a, b)).or_default() += 1;
+            }
+        }
+        for (&(a, b), &count) in &directed {
+            assert_eq!(count, 1, "edge {a}→{b} used {count} times in one direction");
+            assert_eq!(directed.get(&(b, a)), Some(&1), "edge {a}→{b} has no twin");
+        }
+    }
+
+    /// Volume (m³) from the mass properties at unit density.
+    fn volume(mesh: &TriMesh) -> anyhow::Result<Real> {
+        Ok(mesh.mass_properties(1.0)?.volume_m3)
+    }
+
+    /// Asserts that density 2 has 3.5 to 4.5 times the triangles of density 1.
+    fn assert_ratio(coarse: &TriMesh, fine: &TriMesh) {
+        let ratio = fine.triangles().len() as Real / coarse.triangles().len() as Real;
+        assert!((3.5..=4.5).contains(&ratio), "triangle ratio {ratio}");
+    }
+
+    /// Area of the regular `segments`-gon inscribed in the unit circle, over π.
+    fn polygon_factor(segments: usize) -> Real {
+        let step = TAU / segments as Real;
+        step.sin() / step
+    }
+
+    /// Mean of `(r + offset)²` (m²) over a pitch of the thread's phase, by the midpoint rule.
+    fn mean_square_radius(thread: &ThreadProfile, offset: Real) -> Real {
+        let n = 20_000;
+        (0..n)
+            .map(|k| {
+                let z = thread.pitch * (k as Real + 0.5) / n as Real;
+                (thread.radius(0.0, z) + offset).powi(2)
+            })
+            .sum::<Real>()
+            / n as Real
+    }
+
+    #[test]
+    fn box_is_closed_with_exact_volume() -> anyhow::Result<()> {
+        let half = Vec3::new(10.0 * MM, 20.0 * MM, 30.0 * MM);
+        let coarse = box_mesh(half, 1)?;
+        let fine = box_mesh(half, 2)?;
+        let exact = 8.0 * half.x * half.y * half.z;
+        for mesh in [&coarse, &fine] {
+            assert_closed(mesh);
+            let v = volume(mesh)?;
+            assert!(((v - exact) / exact).abs() < 1e-12, "volume {v} vs {exact}");
+        }
+        assert_eq!(coarse.triangles().len(), 192);
+        assert_eq!(fine.triangles().len(), 768);
+        assert_eq!(coarse.vertices().len(), 98);
+        assert_ratio(&coarse, &fine);
+        Ok(())
+    }
+
+    #[test]
+    fn gears_are_closed_with_plausible_volume() -> anyhow::Result<()> {
+        let (module, width) = (1.0 * MM, 10.0 * MM);
+        for (teeth, counts) in [(20, [4_800, 17_280]), (35, [8_400, 30_240])] {
+            let profile = GearProfile::new(teeth, module)?;
+            // Volume of the exact outline: w·z·½∫r(φ)² dφ over one tooth pitch (midpoint rule).
+            let (n, pitch_angle) = (20_000, TAU / teeth as Real);
+            let exact = width
+                * teeth as Real
+                * (0..n)
+                    .map(|k| {
+                        0.5 * profile
+                            .radius(pitch_angle * (k as Real + 0.5) / n as Real)
+                            .powi(2)
+                    })
+                    .sum::<Real>()
+                * pitch_angle
+                / n as Real;
+            let disc = |r: Real| PI * r * r * width;
+            let pitch_disc = disc(module * teeth as Real / 2.0);
+            let mut meshes = Vec::new();
+            for (density, count) in [1, 2].into_iter().zip(counts) {
+                let mesh = spur_gear(teeth, module, width, density)?;
+                assert_closed(&mesh);
+                assert_eq!(mesh.triangles().len(), count);
+                let v = volume(&mesh)?;
+                assert!(
+                    (disc(profile.root_radius)..=disc(profile.tip_radius)).contains(&v),
+                    "{teeth} teeth: volume {v} outside the root and tip discs"
+                );
+                // Standard involute teeth with a 1.25·m dedendum take slightly more from the pitch
+                // disc than they add: 2.04 % at 20 teeth, 1.0 % at 35 (exact outlines; the meshes
+                // are within 0.05 % of those).
+                assert!(
+                    ((v - pitch_disc) / pitch_disc).abs() < 0.025,
+                    "{teeth} teeth: volume {v} vs pitch disc {pitch_disc}"
+                );
+                assert!(
+                    ((v - exact) / exact).abs() < 2e-3,
+                    "{teeth} teeth: volume {v} vs exact outline {exact}"
+                );
+                meshes.push(mesh);
+            }
+            assert_ratio(&meshes[0], &meshes[1]);
+        }
+        Ok(())
+    }
+
+    /// Smallest `ρ − r_a(φ)` (m) over the vertices of b posed by `(centre, angle)` in a's frame
+    /// (polar `ρ, φ`), and likewise over a's vertices in b's frame against `r_b`: negative when a
+    /// vertex of one gear lies inside the other's exact outline.
+    fn pair_margin(
+        (a, profile_a): (&TriMesh, &GearProfile),
+        (b, profile_b): (&TriMesh, &GearProfile),
+        centre: Vec3,
+        angle: Real,
+    ) -> Real {
+        let (c, s) = (angle.cos(), angle.sin());
+        let outside_a = b.vertices().iter().map(|v| {
+            let (x, y) = (centre.x + c * v.x - s * v.y, centre.y + s * v.x + c * v.y);
+            x.hypot(y) - profile_a.radius(y.atan2(x))
+        });
+        let outside_b = a.vertices().iter().map(|v| {
+            let (dx, dy) = (v.x - centre.x, v.y - centre.y);
+            let (x, y) = (c * dx + s * dy, -s * dx + c * dy);
+            x.hypot(y) - profile_b.radius(y.atan2(x))
+        });
+        outside_a.chain(outside_b).fold(Real::INFINITY, Real::min)
+    }
+
+    #[test]
+    fn gear_pair_meshes_without_intersecting() -> anyhow::Result<()> {
+        let (module, width, clearance) = (1.0 * MM, 10.0 * MM, 0.19 * MM);
+        // 35 teeth (odd) and 20 teeth (even) as gear b exercise both rotations.
+        for (teeth_a, teeth_b) in [(20, 35), (35, 20)] {
+            let profile_a = GearProfile::new(teeth_a, module)?;
+            let profile_b = GearProfile::new(teeth_b, module)?;
+            for density in [1, 2] {
+                let (a, b, centre, angle) =
+                    gear_pair(teeth_a, teeth_b, module, width, clearance, density)?;
+                let expected = module * (teeth_a + teeth_b) as Real / 2.0 + clearance;
+                assert!((centre - Vec3::new(expected, 0.0, 0.0)).norm() < 1e-15);
+                let margin = pair_margin((&a, &profile_a), (&b, &profile_b), centre, angle);
+                // The flanks' backlash is about clearance·sin 20° normal to them, more radially.
+                assert!(
+                    margin > 0.25 * clearance,
+                    "{teeth_a}/{teeth_b} at density {density}: margin {margin}"
+                );
+                // Half a tooth pitch off, tooth meets tooth: the check must see it.
+                let wrong = angle + PI / teeth_b as Real;
+                let margin = pair_margin((&a, &profile_a), (&b, &profile_b), centre, wrong);
+                assert!(
+                    margin < -0.25 * module,
+                    "wrong rotation not detected: {margin}"
+                );
+            }
+        }
+        Ok(())
+    }
+
+    #[test]
+    fn rod_is_closed_with_plausible_volume() -> anyhow::Result<()> {
+        let (major, minor, pitch, length) = (4.0 * MM, 3.2 * MM, 1.25 * MM, 20.0 * MM);
+        let thread = ThreadProfile::new(major, minor, pitch)?;
+        let cylinder = |r: Real| PI * r * r * length;
+        let mut meshes = Vec::new();
+        for (density, count) in [(1, 8_256), (2, 32_896)] {
+            let mesh = threaded_rod(major, minor, pitch, length, density)?;
+            assert_closed(&mesh);
+            assert_eq!(mesh.triangles().len(), count);
+            let v = volume(&mesh)?;
+            assert!(
+                (cylinder(minor)..=cylinder(major)).contains(&v),
+                "volume {v}"
+            );
+            // Each cross-section of the exact rod has area π·mean(r²); the mesh's is the polygon.
+            let expected =
+                PI * length * mean_square_radius(&thread, 0.0) * polygon_factor(32 * density);
+            assert!(
+                ((v - expected) / expected).abs() < 2e-3,
+                "volume {v} vs {expected}"
+            );
+            let (lo, hi) = mesh.bounding_box();
+            assert!(lo.z.abs() < 1e-15 && (hi.z - length).abs() < 1e-15);
+            meshes.push(mesh);
+        }
+        assert_ratio(&meshes[0], &meshes[1]);
+        Ok(())
+    }
+
+    #[test]
+    fn nut_is_closed_with_plausible_volume() -> anyhow::Result<()> {
+        let (major, minor, pitch) = (4.0 * MM, 3.2 * MM, 1.25 * MM);
+        let (length, outer, clearance) = (8.0 * MM, 7.0 * MM, 0.1 * MM);
+        let thread = ThreadProfile::new(major, minor, pitch)?;
+        let annulus = |inner: Real| PI * (outer * outer - inner * inner) * length;
+        let mut meshes = Vec::new();
+        for (density, count) in [(1, 3_520), (2, 13_952)] {
+            let mesh = threaded_nut(major, minor, pitch, length, outer, clearance, density)?;
+            assert_closed(&mesh);
+            assert_eq!(mesh.triangles().len(), count);
+            let v = volume(&mesh)?;
+            assert!(
+                (annulus(major + clearance)..=annulus(minor + clearance)).contains(&v),
+                "volume {v}"
+            );
+            let expected = PI
+                * length
+                * (outer * outer - mean_square_radius(&thread, clearance))
+                * polygon_factor(32 * density);
+            assert!(
+                ((v - expected) / expected).abs() < 2e-3,
+                "volume {v} vs {expected}"
+            );
+            meshes.push(mesh);
+        }
+        assert_ratio(&meshes[0], &meshes[1]);
+        Ok(())
+    }
+
+    #[test]
+    fn rod_fits_in_nut_with_the_clearance() -> anyhow::Result<()> {
+        let (major, minor, pitch) = (4.0 * MM, 3.2 * MM, 1.25 * MM);
+        let (length, outer, clearance) = (8.0 * MM, 7.0 * MM, 0.1 * MM);
+        let thread = ThreadProfile::new(major, minor, pitch)?;
+        let nut_radius = |theta: Real, z: Real| thread.radius(theta, z) + clearance;
+        for density in [1, 2] {
+            let rod = threaded_rod(major, minor, pitch, 20.0 * MM, density)?;
+            let nut = threaded_nut(major, minor, pitch, length, outer, clearance, density)?;
+            // The nut's inner vertices lie on its profile function.
+            let mut inner = 0;
+            for v in nut
+                .vertices()
+                .iter()
+                .filter(|v| v.xy().norm() < outer - 1e-6)
+            {
+                let gap = v.xy().norm() - nut_radius(v.y.atan2(v.x), v.z);
+                assert!(
+                    gap.abs() < 1e-12,
+                    "nut vertex {v:?} off its profile by {gap}"
+                );
+                inner += 1;
+            }
+            assert!(inner > 0);
+            // Every rod vertex along the nut is a clearance inside the nut's surface.
+            let mut along = 0;
+            for v in rod.vertices().iter().filter(|v| v.z <= length) {
+                let gap = nut_radius(v.y.atan2(v.x), v.z) - v.xy().norm();
+                assert!(gap >= clearance - 1e-12, "rod vertex {v:?}: gap {gap}");
+                along += 1;
+            }
+            assert!(along > 0);
+        }
+        Ok(())
+    }
+
+    #[test]
+    fn bad_parameters_are_errors() {
+        assert!(box_mesh(Vec3::new(1.0, 1.0, 1.0), 0).is_err());
+        assert!(box_mesh(Vec3::new(1.0, -1.0, 1.0), 1).is_err());
+        assert!(spur_gear(2, MM, MM, 1).is_err());
+        assert!(spur_gear(20, Real::NAN, MM, 1).is_err());
+        assert!(gear_pair(20, 35, MM, MM, -MM, 1).is_err());
+        assert!(threaded_rod(3.0 * MM, 4.0 * MM, MM, 10.0 * MM, 1).is_err());
+        assert!(threaded_nut(4.0 * MM, 3.2 * MM, MM, 8.0 * MM, 4.05 * MM, 0.1 * MM, 1).is_err());
+    }
+}

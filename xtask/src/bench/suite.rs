@@ -1,0 +1,522 @@
+//! `cargo xtask bench collision --suite [--quick]`: the collision benchmark on every scene of a
+//! generalization suite, so that an accuracy or speed figure is never read off the one scene it
+//! was tuned on.
+//!
+//! - From the repository's meshes: the jaws and the spoon in the cup (as `bench collision`), the
+//!   round peg inserted 4 mm into its hole, and the fork and the spoon lowered into the mug.
+//! - Generated in code (`shapes.rs`), each at two tessellations (density 1 and 2, about 4× the
+//!   triangles), on the same poses: a 2 cm box face-on-face on a slab, a pair of spur gears in
+//!   mesh (20 and 35 teeth, module 1 mm, 0.19 mm clearance) with the smaller gear rocking and
+//!   sliding within its backlash, and an M8-like threaded rod turned a full turn in its nut
+//!   (0.1 mm radial clearance).
+//! - Per scene, parry and LOD at each threshold, as `bench collision` measures one scene; the
+//!   poses are fewer (100, `--quick`: 12) and replayed once.
+//! - `tessellation_error_rel`: for the generated pairs, per pose, `|W_fine − W_coarse| /
+//!   |W_coarse|` of the reference wrenches (LOD at threshold 0), `W = (F, T / r)`; its median
+//!   over the poses is reported on both tessellations' rows.
+//! - Output: `DIR/suite.json` (every row with its scene, the fields of `collision.json`'s rows,
+//!   and `tessellation_error_rel`; per scene its builds and speed-up; `suite_worst`, the worst
+//!   figure over the scenes for each of issue 15's goals) and `DIR/suite_<scene>.svg`.
+
+use std::time::Instant;
+
+use haptic_collision::{DegeneratePolicy, LoadOptions, TriMesh};
+use haptic_core::{Pose, Real, Vec3};
+use nalgebra::UnitQuaternion;
+use serde::Serialize;
+
+use super::collision::{self, Row, Scene};
+use super::shapes;
+use crate::common;
+
+/// A suite scene, and which tessellation of which generated shape it is.
+struct Entry {
+    scene: Scene,
+    /// The generated shape's name and this tessellation's density; `None` for file meshes.
+    family: Option<(&'static str, usize)>,
+}
+
+/// A mesh moved by `pose` (its vertices rewritten).
+fn posed(mesh: &TriMesh, pose: &Pose) -> anyhow::Result<TriMesh> {
+    let vertices = mesh
+        .vertices()
+        .iter()
+        .map(|v| pose.orientation * v + pose.position)
+        .collect();
+    Ok(TriMesh::new(
+        vertices,
+        mesh.triangles().to_vec(),
+        DegeneratePolicy::Reject,
+    )?
+    .0)
+}
+
+/// A tool mesh moved to its body frame (origin at its centre of mass), and that centre in the
+/// mesh's frame (m).
+fn body_frame(mesh: TriMesh) -> anyhow::Result<(TriMesh, Vec3)> {
+    let com = mesh.mass_properties(1000.0)?.centre_of_mass_m;
+    Ok((mesh.translated(&-com)?, com))
+}
+
+/// `n` poses around `centre` (the tool's centre of mass at rest): orientation `turn(s)` and
+/// offset `offset(s)` for `s` once around the circle.
+fn path(
+    n: usize,
+    centre: Vec3,
+    offset: impl Fn(Real) -> Vec3,
+    turn: impl Fn(Real) -> UnitQuaternion<Real>,
+) -> Vec<Pose> {
+    (0..n)
+        .map(|i| {
+            let s = i as Real / n as Real * std::f64::consts::TAU;
+            Pose {
+                position: centre + offset(s),
+                orientation: turn(s),
+            }
+        })
+        .collect()
+}
+
+fn file_scene(name: &str, n: usize) -> anyhow::Result<Entry> {
+    let args = super::CollisionArgs {
+        scene: name.to_owned(),
+        scale: None,
+        suite: false,
+    };
+    Ok(Entry {
+        scene: collision::load_scene(&args, n)?,
+        family: None,
+    })
+}
+
+/// The round peg 4 mm into its hole, rocking by 0.1°, sliding ±1 mm along its axis and ±0.03 mm
+/// sideways (the radial clearance is 0.05 mm).
+fn peg_in_hole(n: usize) -> anyhow::Result<Entry> {
+    let meshes = common::meshes_dir();
+    let (tool, _) = collision::load_tool(&meshes.join("factory_round_peg_8mm_tight.stl"), 1.0)?;
+    let (hole, _) = TriMesh::load(
+        meshes.join("factory_round_hole_8mm.stl"),
+        &LoadOptions::with_scale(1.0),
+    )?;
+    let (lo, hi) = hole.bounding_box();
+    let (plo, _) = tool.bounding_box();
+    let centre = Vec3::new(
+        0.5 * (lo.x + hi.x),
+        0.5 * (lo.y + hi.y),
+        hi.z - 4e-3 - plo.z,
+    );
+    let poses = path(
+        n,
+        centre,
+        |s| {
+            Vec3::new(
+                3e-5 * s.cos(),
+                3e-5 * (2.0 * s).sin(),
+                1e-3 * (3.0 * s).sin(),
+            )
+        },
+        |s| {
+            UnitQuaternion::from_scaled_axis(Vec3::new(s.cos(), s.sin(), 0.0) * 0.1f64.to_radians())
+        },
+    );
+    Ok(Entry {
+        scene: Scene {
+            name: "peg-in-hole".into(),
+            description: "NVIDIA Factory round peg (8 mm, tool) 4 mm into its 8.1 mm hole, rocking 0.1°, sliding ±1 mm axially and ±0.03 mm sideways".into(),
+            tool,
+            obstacle: hole,
+            poses,
+            delta_m: 5e-4,
+            k_c: 2000.0,
+        },
+        family: None,
+    })
+}
+
+/// A basemesh utensil lowered into the mug (axis +y), tilted 20°, until it touches.
+fn utensil_in_mug(utensil: &str, n: usize) -> anyhow::Result<Entry> {
+    let meshes = common::meshes_dir();
+    let (tool, _) = collision::load_tool(&meshes.join(format!("basemesh_{utensil}.stl")), 1.0)?;
+    let (mug, _) = TriMesh::load(
+        meshes.join("basemesh_mug.stl"),
+        &LoadOptions::with_scale(1.0),
+    )?;
+    let tilt = UnitQuaternion::from_scaled_axis(Vec3::z() * 0.35);
+    let delta = 1e-3;
+    let poses = collision::approach_poses(&tool, &mug, tilt, Vec3::y(), delta, n)?;
+    Ok(Entry {
+        scene: Scene {
+            name: format!("{utensil}-in-mug"),
+            description: format!(
+                "basemesh {utensil} (tool) lowered tilted 20° into the basemesh mug until it touches, then moved around that pose"
+            ),
+            tool,
+            obstacle: mug,
+            poses,
+            delta_m: delta,
+            k_c: 2000.0,
+        },
+        family: None,
+    })
+}
+
+/// A generated pair at two densities on the same poses: `make(density)` gives the tool (in its
+/// own frame), the obstacle (placed) and the scene's words; `poses(tool body frame, com)` the
+/// poses, taken from the coarse tessellation.
+fn generated(
+    name: &'static str,
+    n: usize,
+    delta_m: Real,
+    make: impl Fn(usize) -> anyhow::Result<(TriMesh, TriMesh, String)>,
+    poses: impl Fn(&TriMesh, &TriMesh, Vec3, usize) -> anyhow::Result<Vec<Pose>>,
+) -> anyhow::Result<Vec<Entry>> {
+    let mut out = Vec::new();
+    let mut shared: Option<(Vec<Pose>, Vec3)> = None;
+    for density in [1, 2] {
+        let (tool, obstacle, words) = make(density)?;
+        let (tool, com) = body_frame(tool)?;
+        let poses = match &shared {
+            // The fine tool's body frame differs from the coarse one's by its centre of mass:
+            // the same placements of the shape, moved by that difference.
+            Some((p, coarse_com)) => {
+                let shift = com - coarse_com;
+                p.iter()
+                    .map(|pose| Pose {
+                        position: pose.position + pose.orientation * shift,
+                        orientation: pose.orientation,
+                    })
+                    .collect()
+            }
+            None => {
+                let p = poses(&tool, &obstacle, com, n)?;
+                shared = Some((p.clone(), com));
+                p
+            }
+        };
+        out.push(Entry {
+            scene: Scene {
+                name: format!("{name}-{}", if density == 1 { "coarse" } else { "fine" }),
+                description: format!(
+                    "{words}; density {density} ({} + {} triangles)",
+                    tool.triangles().len(),
+                    obstacle.triangles().len()
+                ),
+                tool,
+                obstacle,
+                poses,
+                delta_m,
+                k_c: 2000.0,
+            },
+            family: Some((name, density)),
+        });
+    }
+    Ok(out)
+}
+
+fn boxes(n: usize) -> anyhow::Result<Vec<Entry>> {
+    generated(
+        "boxes",
+        n,
+        5e-4,
+        |d| {
+            Ok((
+                shapes::box_mesh(Vec3::repeat(0.01), d)?,
+                shapes::box_mesh(Vec3::new(0.03, 0.03, 0.005), d)?,
+                "a 2 cm cube (tool) face-on-face on a 6 × 6 × 1 cm slab, lowered until it touches, then moved around that pose".into(),
+            ))
+        },
+        |tool, obstacle, _, n| {
+            collision::approach_poses(
+                tool,
+                obstacle,
+                UnitQuaternion::identity(),
+                Vec3::z(),
+                5e-4,
+                n,
+            )
+        },
+    )
+}
+
+fn gears(n: usize) -> anyhow::Result<Vec<Entry>> {
+    generated(
+        "gears",
+        n,
+        1e-3,
+        |d| {
+            let (a, b, centre, angle) = shapes::gear_pair(20, 35, 1e-3, 0.01, 1.9e-4, d)?;
+            let place = Pose {
+                position: centre,
+                orientation: UnitQuaternion::from_scaled_axis(Vec3::z() * angle),
+            };
+            Ok((
+                a,
+                posed(&b, &place)?,
+                "spur gears in mesh (20 teeth, tool, and 35 teeth; module 1 mm, 10 mm wide, 0.19 mm extra centre distance), the small gear rocking ±0.15° within its backlash, sliding ±1 mm along its axis and ±0.03 mm in its plane".into(),
+            ))
+        },
+        |_, _, com, n| {
+            Ok(path(
+                n,
+                com,
+                |s| {
+                    Vec3::new(
+                        3e-5 * (2.0 * s).sin(),
+                        3e-5 * s.cos(),
+                        1e-3 * (3.0 * s).sin(),
+                    )
+                },
+                |s| UnitQuaternion::from_scaled_axis(Vec3::z() * 0.15f64.to_radians() * s.sin()),
+            ))
+        },
+    )
+}
+
+fn bolt_and_nut(n: usize) -> anyhow::Result<Vec<Entry>> {
+    const PITCH: Real = 1.25e-3;
+    generated(
+        "bolt-nut",
+        n,
+        5e-4,
+        |d| {
+            let rod = shapes::threaded_rod(4e-3, 3.2e-3, PITCH, 0.02, d)?;
+            let nut = shapes::threaded_nut(4e-3, 3.2e-3, PITCH, 8e-3, 7e-3, 1e-4, d)?;
+            // Five pitches up the rod: its thread still meets the nut's.
+            let nut = nut.translated(&Vec3::new(0.0, 0.0, 5.0 * PITCH))?;
+            Ok((
+                rod,
+                nut,
+                "an M8-like threaded rod (tool; pitch 1.25 mm, 20 mm) turned one full turn in its nut (8 mm, 0.1 mm radial clearance), advancing a pitch, ±0.05 mm off its axis".into(),
+            ))
+        },
+        |_, _, com, n| {
+            Ok(path(
+                n,
+                com,
+                |s| {
+                    Vec3::new(
+                        5e-5 * (3.0 * s).cos(),
+                        5e-5 * (2.0 * s).sin(),
+                        PITCH * s / std::f64::consts::TAU,
+                    )
+                },
+                |s| UnitQuaternion::from_scaled_axis(Vec3::z() * s),
+            ))
+        },
+    )
+}
+
+/// A row of `suite.json`.
+#[derive(Serialize)]
+struct SuiteRow<'a> {
+    scene: &'a str,
+    #[serde(flatten)]
+    row: &'a Row,
+    /// Median `|W_fine − W_coarse| / |W_coarse|` of the generated shape (`null` for file meshes).
+    tessellation_error_rel: Option<Real>,
+}
+
+/// One scene in `suite.json`.
+#[derive(Serialize)]
+struct SuiteScene {
+    name: String,
+    description: String,
+    tool_triangles: usize,
+    obstacle_triangles: usize,
+    delta_m: Real,
+    lod_build_s: Real,
+    parry_build_s: Real,
+    speedup_lod_2_5_percent_vs_parry: Real,
+    tessellation_error_rel: Option<Real>,
+    tessellation_error_rel_p90: Option<Real>,
+}
+
+/// The worst figure over the scenes, for each goal.
+#[derive(Serialize)]
+struct SuiteWorst {
+    /// LOD at 2.5 %, each pose clustered from the reference's representatives.
+    wrench_error_rel_median: Real,
+    /// LOD at 2.5 %, along its own chain of warm starts.
+    wrench_error_rel_median_chained: Real,
+    wrench_error_rel_p90: Real,
+    tessellation_error_rel_median: Real,
+    /// Most raw contacts of one LOD query, any threshold.
+    contacts_max: usize,
+    speedup_lod_2_5_vs_parry_min: Real,
+    build_s_max: Real,
+}
+
+/// `suite.json`.
+#[derive(Serialize)]
+struct SuiteReport<'a> {
+    quick: bool,
+    poses_per_scene: usize,
+    passes: usize,
+    wrench: &'static str,
+    seconds: Real,
+    scenes: Vec<SuiteScene>,
+    rows: Vec<SuiteRow<'a>>,
+    suite_worst: SuiteWorst,
+}
+
+/// Runs the suite.
+pub fn run(out: &crate::OutArgs) -> anyhow::Result<()> {
+    let started = Instant::now();
+    let dir = out.dir("collision")?;
+    let (n, passes) = if out.quick {
+        (12, 1)
+    } else {
+        (collision::POSES / 2, 1)
+    };
+    let mut entries = vec![
+        file_scene("jaws", n)?,
+        file_scene("spoon-cup", n)?,
+        peg_in_hole(n)?,
+        utensil_in_mug("fork", n)?,
+        utensil_in_mug("spoon", n)?,
+    ];
+    entries.extend(boxes(n)?);
+    entries.extend(gears(n)?);
+    entries.extend(bolt_and_nut(n)?);
+
+    let mut measured = Vec::new();
+    for e in &entries {
+        let m = collision::measure(&e.scene, passes)?;
+        collision::work_precision_chart(
+            &dir.join(format!("suite_{}.svg", e.scene.name)),
+            &e.scene.name,
+            &m.rows,
+        )?;
+        measured.push(m);
+    }
+    // Tessellation error of each generated shape: fine against coarse, pose by pose.
+    let tessellation = |name: &str| -> Option<(Real, Real)> {
+        let name = name_static(name)?;
+        let find = |d: usize| {
+            entries
+                .iter()
+                .zip(&measured)
+                .find(|(e, _)| e.family == Some((name, d)))
+        };
+        let ((_, coarse), (_, fine)) = (find(1)?, find(2)?);
+        let errors: Vec<Real> = coarse
+            .reference
+            .wrenches
+            .iter()
+            .zip(&fine.reference.wrenches)
+            .filter_map(|(c, f)| collision::relative_error(f, c, coarse.radius_m))
+            .collect();
+        Some((
+            collision::quantile(&errors, 0.5),
+            collision::quantile(&errors, 0.9),
+        ))
+    };
+    let mut scenes = Vec::new();
+    let mut rows = Vec::new();
+    for (e, m) in entries.iter().zip(&measured) {
+        let t = e.family.and_then(|(name, _)| tessellation(name));
+        scenes.push(SuiteScene {
+            name: e.scene.name.clone(),
+            description: e.scene.description.clone(),
+            tool_triangles: e.scene.tool.triangles().len(),
+            obstacle_triangles: e.scene.obstacle.triangles().len(),
+            delta_m: e.scene.delta_m,
+            lod_build_s: m.lod_build_s,
+            parry_build_s: m.parry_build_s,
+            speedup_lod_2_5_percent_vs_parry: m.speedup_2_5,
+            tessellation_error_rel: t.map(|t| t.0),
+            tessellation_error_rel_p90: t.map(|t| t.1),
+        });
+        for r in &m.rows {
+            rows.push(SuiteRow {
+                scene: &e.scene.name,
+                row: r,
+                tessellation_error_rel: t.map(|t| t.0),
+            });
+        }
+    }
+    let at_2_5 = || {
+        rows.iter()
+            .filter(|r| r.row.backend == "lod" && (r.row.threshold - 0.025).abs() < 1e-12)
+    };
+    let max = |v: &mut dyn Iterator<Item = Real>| v.fold(0.0, Real::max);
+    let worst = SuiteWorst {
+        wrench_error_rel_median: max(&mut at_2_5().map(|r| r.row.wrench_error_rel_median)),
+        wrench_error_rel_median_chained: max(
+            &mut at_2_5().map(|r| r.row.wrench_error_rel_median_chained)
+        ),
+        wrench_error_rel_p90: max(&mut at_2_5().map(|r| r.row.wrench_error_rel_p90)),
+        tessellation_error_rel_median: max(&mut scenes
+            .iter()
+            .filter_map(|s| s.tessellation_error_rel)),
+        contacts_max: rows
+            .iter()
+            .filter(|r| r.row.backend == "lod")
+            .map(|r| r.row.contacts_max)
+            .max()
+            .unwrap_or(0),
+        speedup_lod_2_5_vs_parry_min: scenes
+            .iter()
+            .map(|s| s.speedup_lod_2_5_percent_vs_parry)
+            .fold(Real::INFINITY, Real::min),
+        build_s_max: max(&mut scenes.iter().map(|s| s.lod_build_s)),
+    };
+    println!();
+    println!(
+        "{:<18} {:>8} {:>8} {:>10} {:>10} {:>9} {:>9} {:>8}",
+        "scene", "tool", "obstacle", "err 2.5 %", "chained", "contacts", "speed-up", "build s"
+    );
+    for (s, m) in scenes.iter().zip(&measured) {
+        let r = m
+            .rows
+            .iter()
+            .find(|r| r.backend == "lod" && (r.threshold - 0.025).abs() < 1e-12);
+        let cmax = m
+            .rows
+            .iter()
+            .filter(|r| r.backend == "lod")
+            .map(|r| r.contacts_max)
+            .max()
+            .unwrap_or(0);
+        println!(
+            "{:<18} {:>8} {:>8} {:>10.3} {:>10.3} {:>9} {:>8.1}× {:>8.2}{}",
+            s.name,
+            s.tool_triangles,
+            s.obstacle_triangles,
+            r.map_or(Real::NAN, |r| r.wrench_error_rel_median),
+            r.map_or(Real::NAN, |r| r.wrench_error_rel_median_chained),
+            cmax,
+            s.speedup_lod_2_5_percent_vs_parry,
+            s.lod_build_s,
+            s.tessellation_error_rel
+                .map_or(String::new(), |t| format!("   tessellation {t:.3}")),
+        );
+    }
+    println!(
+        "worst: error at 2.5 % {:.3} (chained {:.3}; goal 0.05), tessellation {:.3} (goal 0.05), contacts {} (goal 256), speed-up {:.1}× (goal 20×), build {:.2} s (goal 2 s)",
+        worst.wrench_error_rel_median,
+        worst.wrench_error_rel_median_chained,
+        worst.tessellation_error_rel_median,
+        worst.contacts_max,
+        worst.speedup_lod_2_5_vs_parry_min,
+        worst.build_s_max
+    );
+    let report = SuiteReport {
+        quick: out.quick,
+        poses_per_scene: n,
+        passes,
+        wrench: collision::WRENCH,
+        seconds: started.elapsed().as_secs_f64(),
+        scenes,
+        rows,
+        suite_worst: worst,
+    };
+    common::write_json(&dir.join("suite.json"), &report)
+}
+
+/// The generated shapes' names, as the `'static` strings their entries carry.
+fn name_static(name: &str) -> Option<&'static str> {
+    ["boxes", "gears", "bolt-nut"]
+        .into_iter()
+        .find(|n| *n == name)
+}
