@@ -215,35 +215,65 @@ fn query<B: CollisionBackend + Send>(
     ))
 }
 
-/// The native sensation-preserving multiresolution back-end: `LodBackend(tool, obstacles)`, the
-/// tool mesh in its body frame and `[(Mesh, pose), …]` the obstacles with their world poses.
-/// Building the hierarchies and querying release the GIL; one back-end may be used from
-/// several Python threads (their queries take turns).
+/// The native sensation-preserving multiresolution back-end: `LodBackend(tool, obstacles,
+/// cache_dir=None)`, the tool mesh in its body frame and `[(Mesh, pose), …]` the obstacles with
+/// their world poses. With `cache_dir`, each hierarchy is read back from that folder when it was
+/// saved there for the same mesh, and built and saved there otherwise (a file that cannot be
+/// used is rebuilt, never used). Building the hierarchies and querying release the GIL; one
+/// back-end may be used from several Python threads (their queries take turns).
 #[pyclass(module = "haptic", name = "LodBackend", frozen)]
 pub struct PyLodBackend {
     inner: Mutex<(LodBackend, ContactSet)>,
     node_count: usize,
     radius_m: f64,
+    cache: Vec<(String, String)>,
 }
 
 #[pymethods]
 impl PyLodBackend {
     #[new]
+    #[pyo3(signature = (tool, obstacles, cache_dir = None))]
     fn new(
         py: Python<'_>,
         tool: PyRef<'_, PyMesh>,
         obstacles: &Bound<'_, PyAny>,
+        cache_dir: Option<std::path::PathBuf>,
     ) -> PyResult<Self> {
+        use haptic_collision::lod::CacheOutcome;
         let obstacles = self::obstacles(obstacles)?;
         let tool = tool.mesh.clone();
-        let backend = py
-            .detach(|| LodBackend::new(&tool, &obstacles))
+        let (backend, cache) = py
+            .detach(|| match &cache_dir {
+                None => LodBackend::new(&tool, &obstacles).map(|b| (b, Vec::new())),
+                Some(dir) => LodBackend::with_cache(&tool, &obstacles, dir),
+            })
             .map_err(|e| collision(&e))?;
+        let cache = cache
+            .into_iter()
+            .map(|o| match o {
+                CacheOutcome::Loaded(p) => ("loaded".to_owned(), p.display().to_string()),
+                CacheOutcome::Built(p) => ("built".to_owned(), p.display().to_string()),
+                CacheOutcome::Rebuilt(p, why) => {
+                    (format!("rebuilt: {why}"), p.display().to_string())
+                }
+                CacheOutcome::NotSaved(p, why) => {
+                    (format!("not saved: {why}"), p.display().to_string())
+                }
+            })
+            .collect();
         Ok(Self {
             node_count: backend.node_count(),
             radius_m: backend.tool_bounding_radius_m(),
             inner: Mutex::new((backend, ContactSet::with_capacity(256))),
+            cache,
         })
+    }
+
+    /// With `cache_dir`: for the tool, then each obstacle, `(what happened, file)`, what being
+    /// `"loaded"`, `"built"`, `"rebuilt: why"` or `"not saved: why"`; empty without.
+    #[getter]
+    fn cache_report(&self) -> Vec<(String, String)> {
+        self.cache.clone()
     }
 
     /// The contacts of the tool at `pose` within `delta` (m), at the error `threshold` (a

@@ -374,3 +374,25 @@ def test_box_over_slab(make_box):
     pose[2] = 0.0125
     far, _ = backend.query(pose, delta=DELTA, threshold=0.0)
     assert len(far) == 0
+
+
+def test_saved_hierarchies_are_read_back_and_answer_the_same(jaws_meshes, tmp_path):
+    upper, lower = jaws_meshes
+    obstacles = [(lower, IDENTITY)]
+    first = haptic.LodBackend(upper, obstacles, cache_dir=tmp_path)
+    assert [what for what, _ in first.cache_report] == ["built", "built"]
+    second = haptic.LodBackend(upper, obstacles, cache_dir=tmp_path)
+    assert [what for what, _ in second.cache_report] == ["loaded", "loaded"]
+    a, _ = first.query(POSES["slid"], delta=DELTA, threshold=0.025)
+    b, _ = second.query(POSES["slid"], delta=DELTA, threshold=0.025)
+    assert len(a) > 0
+    for key in CONTACT_KEYS:
+        assert np.array_equal(getattr(a, key), getattr(b, key)), key
+    # A file cut short is rebuilt and replaced, never used.
+    _, path = second.cache_report[0]
+    data = open(path, "rb").read()
+    open(path, "wb").write(data[: len(data) // 3])
+    third = haptic.LodBackend(upper, obstacles, cache_dir=tmp_path)
+    assert third.cache_report[0][0].startswith("rebuilt: "), third.cache_report
+    assert "cut short" in third.cache_report[0][0]
+    assert haptic.LodBackend(upper, obstacles).cache_report == []

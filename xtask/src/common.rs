@@ -30,3 +30,42 @@ pub fn write_json(path: &Path, value: &impl serde::Serialize) -> anyhow::Result<
     println!("wrote {}", path.display());
     Ok(())
 }
+
+/// Where xtask keeps the LOD hierarchies it built (`target/lod-cache`), so that a second demo,
+/// study or benchmark on the same meshes reads them back instead of building them again.
+pub fn lod_cache_dir() -> PathBuf {
+    repo_root().join("target").join("lod-cache")
+}
+
+/// `LodBackend::with_cache` in [`lod_cache_dir`], saying what it did.
+pub fn lod_backend(
+    tool: &haptic_collision::TriMesh,
+    obstacles: &[(haptic_collision::TriMesh, haptic_core::Pose)],
+) -> anyhow::Result<haptic_collision::LodBackend> {
+    use haptic_collision::lod::CacheOutcome;
+    let started = std::time::Instant::now();
+    let (backend, outcomes) =
+        haptic_collision::LodBackend::with_cache(tool, obstacles, &lod_cache_dir())?;
+    let loaded = outcomes
+        .iter()
+        .filter(|o| matches!(o, CacheOutcome::Loaded(_)))
+        .count();
+    for o in &outcomes {
+        match o {
+            CacheOutcome::Rebuilt(path, why) => {
+                eprintln!("note: rebuilt the hierarchy of {} ({why})", path.display());
+            }
+            CacheOutcome::NotSaved(path, why) => {
+                eprintln!("note: could not save {} ({why})", path.display());
+            }
+            _ => {}
+        }
+    }
+    println!(
+        "LOD hierarchies ready in {:.2} s ({loaded} of {} read back from {})",
+        started.elapsed().as_secs_f64(),
+        outcomes.len(),
+        lod_cache_dir().display()
+    );
+    Ok(backend)
+}

@@ -5,7 +5,6 @@ use std::path::PathBuf;
 use std::time::Instant;
 
 use anyhow::{Context, bail};
-use haptic_collision::LodBackend;
 use haptic_core::{CollisionBackend, Integrator};
 use haptic_dynamics::{
     ForwardEuler, IntegratorKind, LinearizedBackwardEuler, NewtonBackwardEuler, PenaltyModel, Rk4,
@@ -117,12 +116,7 @@ pub fn run(args: &DemoArgs) -> anyhow::Result<()> {
     };
     let summary = match args.backend.as_str() {
         "lod" => {
-            let backend = LodBackend::new(&parts.tool_mesh, &parts.obstacles)?;
-            println!(
-                "LOD hierarchies built in {:.2} s ({} nodes)",
-                t0.elapsed().as_secs_f64(),
-                backend.node_count()
-            );
+            let backend = crate::common::lod_backend(&parts.tool_mesh, &parts.obstacles)?;
             with_integrator(kind, backend, &parts, args, header.as_ref())
         }
         "parry" => {

@@ -284,6 +284,26 @@ impl Hierarchy {
         self.triangle_count
     }
 
+    /// A hierarchy from its parts (read back from a file; see `cache.rs`), `build_s` the time
+    /// it took to get.
+    pub(crate) fn from_parts(
+        nodes: Vec<Node>,
+        piece: Vec<Vec3>,
+        radius_about_origin_m: Real,
+        triangle_count: usize,
+        height: usize,
+        build_s: Real,
+    ) -> Self {
+        Self {
+            nodes,
+            piece,
+            radius_about_origin_m,
+            triangle_count,
+            height,
+            build_s,
+        }
+    }
+
     /// Radius (m) of the sphere about the mesh frame's origin that encloses the mesh.
     pub fn radius_about_origin_m(&self) -> Real {
         self.radius_about_origin_m

@@ -31,8 +31,13 @@
 //! and their extra samples at their distance to the obstacle piece.
 //! `feature_a`/`feature_b` are the source triangle indices for exact (triangle-pair) contacts and
 //! [`NO_FEATURE`](haptic_core::NO_FEATURE) for contacts between coarse pieces.
+//!
+//! Hierarchies can be saved and read back ([`LodBackend::with_cache`], [`Hierarchy::write_to`],
+//! [`Hierarchy::read_from`]), keyed by the mesh's content and the build's version
+//! ([`hierarchy_key`]); a file that does not hold is refused ([`HierarchyFileError`]).
 
 mod build;
+mod cache;
 pub(crate) mod query;
 
 use std::time::Instant;
@@ -42,6 +47,7 @@ use rayon::prelude::*;
 use haptic_core::{CollisionBackend, ContactSet, CoreError, Pose, QueryParams, QueryStats, Real};
 
 pub use build::Hierarchy;
+pub use cache::{CacheOutcome, FORMAT_VERSION, HierarchyFileError, hierarchy_key};
 use query::{Frames, Scratch, Walk, collide};
 
 use crate::mesh::TriMesh;
@@ -126,6 +132,22 @@ impl LodBackend {
     /// for a mesh beyond 2³⁰ triangles.
     pub fn new(tool: &TriMesh, obstacles: &[(TriMesh, Pose)]) -> Result<Self, LodError> {
         let start = Instant::now();
+        Self::check(tool, obstacles)?;
+        // Both sides at once (each build is itself parallel; joining fills idle threads).
+        let (tool, obstacles) = rayon::join(
+            || Hierarchy::build(tool),
+            || {
+                obstacles
+                    .par_iter()
+                    .map(|(m, p)| (Hierarchy::build(m), *p))
+                    .collect::<Vec<(Hierarchy, Pose)>>()
+            },
+        );
+        Ok(Self::from_hierarchies(tool, obstacles, start))
+    }
+
+    /// The checks of [`LodBackend::new`] before anything is built.
+    fn check(tool: &TriMesh, obstacles: &[(TriMesh, Pose)]) -> Result<(), LodError> {
         for mesh in std::iter::once(tool).chain(obstacles.iter().map(|(m, _)| m)) {
             if mesh.triangles().len() > MAX_TRIANGLES {
                 return Err(LodError::TooManyTriangles {
@@ -138,16 +160,15 @@ impl LodBackend {
                 what: "obstacle pose",
             });
         }
-        // Both sides at once (each build is itself parallel; joining fills idle threads).
-        let (tool, obstacles) = rayon::join(
-            || Hierarchy::build(tool),
-            || {
-                obstacles
-                    .par_iter()
-                    .map(|(m, p)| (Hierarchy::build(m), *p))
-                    .collect::<Vec<(Hierarchy, Pose)>>()
-            },
-        );
+        Ok(())
+    }
+
+    /// The back-end of built (or loaded) hierarchies, with its query scratch reserved.
+    fn from_hierarchies(
+        tool: Hierarchy,
+        obstacles: Vec<(Hierarchy, Pose)>,
+        start: Instant,
+    ) -> Self {
         // Every pop pushes at most two pairs and each split goes one level down one tree, so the
         // stack never holds more than height_a + height_b + 1 pairs: reserving that up front means
         // the walk never allocates (the list of coarse pairs grows to its largest size once).
@@ -161,7 +182,7 @@ impl LodBackend {
                 .collect(),
             total_s: start.elapsed().as_secs_f64(),
         };
-        Ok(Self {
+        Self {
             tool,
             obstacles,
             scratch: Scratch {
@@ -169,7 +190,7 @@ impl LodBackend {
                 apart: Vec::new(),
             },
             stats,
-        })
+        }
     }
 
     /// Build figures (time, node counts, memory).

@@ -279,9 +279,13 @@ class QueryStats:
 class LodBackend:
     """The sensation-preserving multiresolution collision back-end (Otaduy & Lin).
 
-    ``LodBackend(tool, obstacles)``: ``tool`` the tool mesh in its body frame (the frame whose
-    pose the queries give), ``obstacles`` a list of ``(Mesh, pose)`` pairs placing each obstacle
-    in the world. Building the hierarchies releases the GIL.
+    ``LodBackend(tool, obstacles, cache_dir=None)``: ``tool`` the tool mesh in its body frame
+    (the frame whose pose the queries give), ``obstacles`` a list of ``(Mesh, pose)`` pairs
+    placing each obstacle in the world. With ``cache_dir``, each hierarchy is read back from that
+    folder when it was saved there for the same mesh and build (the jaws: 0.06 s instead of about
+    1 s), and built and saved there otherwise; a file that cannot be used (cut short, corrupt,
+    another version or mesh) is rebuilt and replaced, never used. Building the hierarchies
+    releases the GIL.
 
     Raises:
         InputError: an obstacle that is not a ``(Mesh, pose)`` pair (``.field ==
@@ -289,7 +293,17 @@ class LodBackend:
         CollisionError: hierarchies that cannot be built.
     """
 
-    def __init__(self, tool: Mesh, obstacles: Iterable[tuple[Mesh, _Pose]]) -> None: ...
+    def __init__(
+        self,
+        tool: Mesh,
+        obstacles: Iterable[tuple[Mesh, _Pose]],
+        cache_dir: str | os.PathLike[str] | None = None,
+    ) -> None: ...
+    @property
+    def cache_report(self) -> list[tuple[str, str]]:
+        """With ``cache_dir``: for the tool, then each obstacle, ``(what happened, file)``,
+        what being ``"loaded"``, ``"built"``, ``"rebuilt: why"`` or ``"not saved: why"``;
+        empty without."""
     def query(
         self, pose: _Pose, delta: float, threshold: float = 0.0
     ) -> tuple[Contacts, QueryStats]:

@@ -15,7 +15,8 @@
 //! - `collision_jaws`: `ParryBackend`, `LodBackend` exact and at 2.5 % of the tool's bounding
 //!   radius, on the same 200 jaws poses (the collision benchmark's path: the upper jaw in
 //!   occlusion, moved by up to 0.5 mm and 0.3°), δ = 1 mm, interleaved pose by pose in one run.
-//! - `build_jaws_s`, `build_jaws_bytes`: `LodBackend::new` on the jaws, and its heap memory.
+//! - `build_jaws_s`, `build_jaws_bytes`: `LodBackend::new` on the jaws, and its heap memory;
+//!   `load_jaws_s`: the same hierarchies read back from their saved files.
 //! - `free_space_contact_step_median_s`: the contact stage in free space: `LodBackend::query`
 //!   with the upper jaw 1 m above the lower one (the broad phase rejects it), then the empty-set
 //!   handling of `haptic_runtime`'s contact stage (clear the representatives, no model).
@@ -220,8 +221,24 @@ pub fn run(out: &crate::OutArgs) -> anyhow::Result<()> {
     let clock = Instant::now();
     let mut parry = ParryBackend::new(&tool, &obstacles)?;
     let parry_build_s = clock.elapsed().as_secs_f64();
+    // The saved hierarchies: written once into a fresh folder, then loaded (best of three).
+    let cache = dir.join("lod-cache");
+    let _ = std::fs::remove_dir_all(&cache);
+    LodBackend::with_cache(&tool, &obstacles, &cache)?;
+    let mut load_s = Real::INFINITY;
+    for _ in 0..3 {
+        let clock = Instant::now();
+        let (_, outcomes) = LodBackend::with_cache(&tool, &obstacles, &cache)?;
+        load_s = load_s.min(clock.elapsed().as_secs_f64());
+        anyhow::ensure!(
+            outcomes
+                .iter()
+                .all(|o| matches!(o, haptic_collision::lod::CacheOutcome::Loaded(_))),
+            "the saved jaws hierarchies were not loaded: {outcomes:?}"
+        );
+    }
     println!(
-        "jaws: LOD build {build_s:.3} s, {:.1} MB; parry build {parry_build_s:.3} s",
+        "jaws: LOD build {build_s:.3} s, {:.1} MB, loaded from its files in {load_s:.3} s; parry build {parry_build_s:.3} s",
         build_bytes as Real / 1e6
     );
     let poses = super::collision::jaws_poses(&com);
@@ -310,6 +327,7 @@ pub fn run(out: &crate::OutArgs) -> anyhow::Result<()> {
             delta_m: DELTA_M,
         },
         build_jaws_s: build_s,
+        load_jaws_s: load_s,
         build_jaws_bytes: build_bytes,
         build_jaws_parry_s: parry_build_s,
         free_space_contact_step_median_s: free_med,
@@ -384,6 +402,8 @@ struct PerfReport {
     cluster_50_to_5_median_s: Real,
     collision_jaws: CollisionJaws,
     build_jaws_s: Real,
+    /// `LodBackend::with_cache` on the jaws with both hierarchies saved: reading them back (s).
+    load_jaws_s: Real,
     build_jaws_bytes: usize,
     build_jaws_parry_s: Real,
     free_space_contact_step_median_s: Real,

@@ -36,7 +36,6 @@ use std::fmt::Write as _;
 use std::path::PathBuf;
 
 use anyhow::Context;
-use haptic_collision::LodBackend;
 use haptic_core::Real;
 use haptic_runtime::Scene;
 use rayon::prelude::*;
@@ -158,7 +157,7 @@ pub fn run(args: &CompareArgs) -> anyhow::Result<()> {
     for c in &configs {
         configure(&base, c).with_context(|| format!("configuration {c:?}"))?;
     }
-    let lod = LodBackend::new(&base.tool_mesh, &base.obstacles)?;
+    let lod = crate::common::lod_backend(&base.tool_mesh, &base.obstacles)?;
     let finest_hz = configs
         .iter()
         .map(|c| c.haptic_hz.unwrap_or(base.config.haptic_rate_hz))

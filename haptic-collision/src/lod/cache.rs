@@ -1,0 +1,502 @@
+//! Saved hierarchies: a [`Hierarchy`] written to a file and read back, keyed by the mesh's
+//! content and the build's version, so that a second start of a program does no rebuild
+//! ([`LodBackend::with_cache`]).
+//!
+//! # Format (version 1)
+//! Little-endian. `HAPTICLOD\0` (10 bytes), the format version (`u32`), the key (`u64`, see
+//! [`hierarchy_key`]), the node count and the piece vertex count (`u64` each), the height and
+//! the triangle count (`u64`), the radius about the origin (`f64`), then each node (its nine
+//! vector and three scalar `f64`s, then its five `u32`s) and each piece vertex (three `f64`s),
+//! and last the FNV-1a hash (`u64`) of every byte before it.
+//!
+//! A file that is not one, of another version, of another mesh or build, cut short, or whose
+//! hash or indices do not hold is refused with a [`HierarchyFileError`]: it is never used.
+
+use std::io::{Read, Write};
+use std::path::{Path, PathBuf};
+use std::time::Instant;
+
+use haptic_core::{Pose, Real, Vec3};
+
+use super::build::{Hierarchy, LEAF, Node};
+use super::{LodBackend, LodError};
+use crate::mesh::TriMesh;
+
+const MAGIC: &[u8; 10] = b"HAPTICLOD\0";
+/// The file format's version.
+pub const FORMAT_VERSION: u32 = 1;
+/// What the build does, in words: part of every key, so that a change to the build (a new
+/// bound, a new piece) makes old files another build's. Change it with the build.
+const BUILD: &str = "haptic-collision lod build 1: median split on centroids, planar convex \
+                     pieces of at most MAX_PIECE_VERTICES, slab and deviation bounds";
+
+/// A saved hierarchy could not be read.
+#[derive(Debug, thiserror::Error)]
+#[non_exhaustive]
+pub enum HierarchyFileError {
+    /// The file could not be read or written.
+    #[error("hierarchy file {path}: {source}")]
+    Io {
+        /// The file.
+        path: PathBuf,
+        /// The error.
+        #[source]
+        source: std::io::Error,
+    },
+    /// The file does not start as a hierarchy file.
+    #[error("not a saved hierarchy")]
+    NotAHierarchy,
+    /// Another version of the format.
+    #[error("saved hierarchy of format version {found}; this build reads version {FORMAT_VERSION}")]
+    Version {
+        /// The version found.
+        found: u32,
+    },
+    /// The hierarchy of another mesh, or of another build.
+    #[error(
+        "saved hierarchy of another mesh or build (key {found:016x}, expected {expected:016x})"
+    )]
+    OtherMesh {
+        /// The key in the file.
+        found: u64,
+        /// The key of the mesh asked for.
+        expected: u64,
+    },
+    /// The file ends early.
+    #[error("saved hierarchy cut short")]
+    Truncated,
+    /// The content does not hold (hash, indices or values).
+    #[error("saved hierarchy corrupt: {0}")]
+    Corrupt(&'static str),
+}
+
+/// FNV-1a, 64 bits.
+#[derive(Clone, Copy)]
+struct Fnv(u64);
+
+impl Fnv {
+    fn new() -> Self {
+        Self(0xcbf2_9ce4_8422_2325)
+    }
+    fn eat(&mut self, bytes: &[u8]) {
+        for b in bytes {
+            self.0 ^= u64::from(*b);
+            self.0 = self.0.wrapping_mul(0x0000_0100_0000_01b3);
+        }
+    }
+}
+
+/// The key of `mesh`'s hierarchy: a hash of its vertices' and triangles' bits, the build's
+/// description and the format's version.
+pub fn hierarchy_key(mesh: &TriMesh) -> u64 {
+    let mut h = Fnv::new();
+    h.eat(BUILD.as_bytes());
+    h.eat(&FORMAT_VERSION.to_le_bytes());
+    for v in mesh.vertices() {
+        for c in v.iter() {
+            h.eat(&c.to_le_bytes());
+        }
+    }
+    for t in mesh.triangles() {
+        for i in t {
+            h.eat(&i.to_le_bytes());
+        }
+    }
+    h.0
+}
+
+/// Writes little-endian values and hashes them.
+struct Writer<W: Write> {
+    out: W,
+    hash: Fnv,
+}
+
+impl<W: Write> Writer<W> {
+    fn bytes(&mut self, b: &[u8]) -> std::io::Result<()> {
+        self.hash.eat(b);
+        self.out.write_all(b)
+    }
+    fn u32(&mut self, v: u32) -> std::io::Result<()> {
+        self.bytes(&v.to_le_bytes())
+    }
+    fn u64(&mut self, v: u64) -> std::io::Result<()> {
+        self.bytes(&v.to_le_bytes())
+    }
+    fn f64(&mut self, v: Real) -> std::io::Result<()> {
+        self.bytes(&v.to_le_bytes())
+    }
+    fn vec3(&mut self, v: &Vec3) -> std::io::Result<()> {
+        self.f64(v.x)?;
+        self.f64(v.y)?;
+        self.f64(v.z)
+    }
+}
+
+/// Reads little-endian values and hashes them.
+struct Reader<R: Read> {
+    input: R,
+    hash: Fnv,
+}
+
+impl<R: Read> Reader<R> {
+    fn bytes<const N: usize>(&mut self) -> Result<[u8; N], HierarchyFileError> {
+        let mut b = [0u8; N];
+        self.input.read_exact(&mut b).map_err(|e| {
+            if e.kind() == std::io::ErrorKind::UnexpectedEof {
+                HierarchyFileError::Truncated
+            } else {
+                HierarchyFileError::Io {
+                    path: PathBuf::new(),
+                    source: e,
+                }
+            }
+        })?;
+        self.hash.eat(&b);
+        Ok(b)
+    }
+    fn u32(&mut self) -> Result<u32, HierarchyFileError> {
+        Ok(u32::from_le_bytes(self.bytes()?))
+    }
+    fn u64(&mut self) -> Result<u64, HierarchyFileError> {
+        Ok(u64::from_le_bytes(self.bytes()?))
+    }
+    fn f64(&mut self) -> Result<Real, HierarchyFileError> {
+        let v = Real::from_le_bytes(self.bytes()?);
+        if v.is_finite() {
+            Ok(v)
+        } else {
+            Err(HierarchyFileError::Corrupt("a value is not finite"))
+        }
+    }
+    fn vec3(&mut self) -> Result<Vec3, HierarchyFileError> {
+        Ok(Vec3::new(self.f64()?, self.f64()?, self.f64()?))
+    }
+}
+
+impl Hierarchy {
+    /// Writes the hierarchy, under `key` (the [`hierarchy_key`] of its mesh).
+    ///
+    /// # Errors
+    /// The writer's.
+    pub fn write_to(&self, out: impl Write, key: u64) -> std::io::Result<()> {
+        let mut w = Writer {
+            out,
+            hash: Fnv::new(),
+        };
+        w.bytes(MAGIC)?;
+        w.u32(FORMAT_VERSION)?;
+        w.u64(key)?;
+        w.u64(self.nodes.len() as u64)?;
+        w.u64(self.piece.len() as u64)?;
+        w.u64(self.height() as u64)?;
+        w.u64(self.triangle_count() as u64)?;
+        w.f64(self.radius_about_origin_m())?;
+        for n in &self.nodes {
+            w.vec3(&n.center)?;
+            w.vec3(&n.normal)?;
+            w.vec3(&n.plane_point)?;
+            w.f64(n.radius)?;
+            w.f64(n.half_thickness)?;
+            w.f64(n.deviation)?;
+            for v in [n.right, n.triangle, n.piece_start, n.piece_len, n.triangles] {
+                w.u32(v)?;
+            }
+        }
+        for p in &self.piece {
+            w.vec3(p)?;
+        }
+        let hash = w.hash.0;
+        w.out.write_all(&hash.to_le_bytes())?;
+        w.out.flush()
+    }
+
+    /// Reads a hierarchy written by [`Hierarchy::write_to`], if it is the one of the mesh whose
+    /// [`hierarchy_key`] is `key`.
+    ///
+    /// # Errors
+    /// [`HierarchyFileError`]: not a hierarchy file, another version, another mesh or build,
+    /// cut short, or corrupt.
+    pub fn read_from(input: impl Read, key: u64) -> Result<Self, HierarchyFileError> {
+        let start = Instant::now();
+        let mut r = Reader {
+            input,
+            hash: Fnv::new(),
+        };
+        let magic: [u8; 10] = r.bytes().map_err(|e| match e {
+            HierarchyFileError::Truncated => HierarchyFileError::NotAHierarchy,
+            other => other,
+        })?;
+        if &magic != MAGIC {
+            return Err(HierarchyFileError::NotAHierarchy);
+        }
+        let version = r.u32()?;
+        if version != FORMAT_VERSION {
+            return Err(HierarchyFileError::Version { found: version });
+        }
+        let found = r.u64()?;
+        if found != key {
+            return Err(HierarchyFileError::OtherMesh {
+                found,
+                expected: key,
+            });
+        }
+        let node_count =
+            usize::try_from(r.u64()?).map_err(|_| HierarchyFileError::Corrupt("node count"))?;
+        let piece_count =
+            usize::try_from(r.u64()?).map_err(|_| HierarchyFileError::Corrupt("piece count"))?;
+        let height =
+            usize::try_from(r.u64()?).map_err(|_| HierarchyFileError::Corrupt("height"))?;
+        let triangle_count =
+            usize::try_from(r.u64()?).map_err(|_| HierarchyFileError::Corrupt("triangle count"))?;
+        let radius = r.f64()?;
+        // A count beyond what a mesh of `triangle_count` triangles has is corrupt, not an
+        // allocation to attempt.
+        if triangle_count == 0
+            || node_count != 2 * triangle_count - 1
+            || piece_count > node_count.saturating_mul(super::MAX_PIECE_VERTICES)
+            || height > node_count
+        {
+            return Err(HierarchyFileError::Corrupt("counts"));
+        }
+        let mut nodes = Vec::with_capacity(node_count);
+        for _ in 0..node_count {
+            let center = r.vec3()?;
+            let normal = r.vec3()?;
+            let plane_point = r.vec3()?;
+            let (radius, half_thickness, deviation) = (r.f64()?, r.f64()?, r.f64()?);
+            let node = Node {
+                center,
+                radius,
+                normal,
+                plane_point,
+                half_thickness,
+                deviation,
+                right: r.u32()?,
+                triangle: r.u32()?,
+                piece_start: r.u32()?,
+                piece_len: r.u32()?,
+                triangles: r.u32()?,
+            };
+            nodes.push(node);
+        }
+        let mut piece = Vec::with_capacity(piece_count);
+        for _ in 0..piece_count {
+            piece.push(r.vec3()?);
+        }
+        let computed = r.hash.0;
+        let stored = u64::from_le_bytes(r.bytes()?);
+        if stored != computed {
+            return Err(HierarchyFileError::Corrupt("hash"));
+        }
+        // Indices that the walk follows without checks.
+        for (i, n) in nodes.iter().enumerate() {
+            let piece_end = u64::from(n.piece_start) + u64::from(n.piece_len);
+            let right_ok =
+                n.right == LEAF || (n.right as usize > i && (n.right as usize) < node_count);
+            let leaf_ok = n.right != LEAF || (n.triangle as usize) < triangle_count;
+            if !right_ok || !leaf_ok || piece_end > piece_count as u64 || n.piece_len == 0 {
+                return Err(HierarchyFileError::Corrupt("node indices"));
+            }
+            if n.right != LEAF && i + 1 >= node_count {
+                return Err(HierarchyFileError::Corrupt("node indices"));
+            }
+        }
+        Ok(Hierarchy::from_parts(
+            nodes,
+            piece,
+            radius,
+            triangle_count,
+            height,
+            start.elapsed().as_secs_f64(),
+        ))
+    }
+}
+
+/// How each hierarchy of a [`LodBackend::with_cache`] came to be.
+#[derive(Debug, Clone, PartialEq)]
+pub enum CacheOutcome {
+    /// Read from its file.
+    Loaded(PathBuf),
+    /// Built, and written to its file (there was none).
+    Built(PathBuf),
+    /// Built because its file could not be used (why), and written anew.
+    Rebuilt(PathBuf, String),
+    /// Built; writing its file failed (why): the next start builds again.
+    NotSaved(PathBuf, String),
+}
+
+/// The hierarchy of `mesh` from `dir` (built and saved there if it is missing or unusable).
+fn load_or_build(mesh: &TriMesh, dir: &Path) -> (Hierarchy, CacheOutcome) {
+    let key = hierarchy_key(mesh);
+    let path = dir.join(format!("lod-{key:016x}.bin"));
+    let why = match std::fs::File::open(&path) {
+        Ok(f) => match Hierarchy::read_from(std::io::BufReader::new(f), key) {
+            Ok(h) => return (h, CacheOutcome::Loaded(path)),
+            Err(e) => Some(e.to_string()),
+        },
+        Err(e) if e.kind() == std::io::ErrorKind::NotFound => None,
+        Err(e) => Some(e.to_string()),
+    };
+    let h = Hierarchy::build(mesh);
+    // Written beside and renamed: a reader never sees half a file.
+    let tmp = dir.join(format!("lod-{key:016x}.bin.{}.tmp", std::process::id()));
+    let written = std::fs::create_dir_all(dir)
+        .and_then(|()| std::fs::File::create(&tmp))
+        .and_then(|f| h.write_to(std::io::BufWriter::new(f), key))
+        .and_then(|()| std::fs::rename(&tmp, &path));
+    let outcome = match (written, why) {
+        (Err(e), _) => {
+            let _ = std::fs::remove_file(&tmp);
+            CacheOutcome::NotSaved(path, e.to_string())
+        }
+        (Ok(()), Some(why)) => CacheOutcome::Rebuilt(path, why),
+        (Ok(()), None) => CacheOutcome::Built(path),
+    };
+    (h, outcome)
+}
+
+impl LodBackend {
+    /// [`LodBackend::new`], with each hierarchy read from `dir` when it was saved there for the
+    /// same mesh and build, and built and saved there otherwise. A file that cannot be used is
+    /// never used: the hierarchy is built again and the file replaced. Returns what happened to
+    /// the tool's hierarchy, then each obstacle's.
+    ///
+    /// # Errors
+    /// As [`LodBackend::new`].
+    pub fn with_cache(
+        tool: &TriMesh,
+        obstacles: &[(TriMesh, Pose)],
+        dir: &Path,
+    ) -> Result<(Self, Vec<CacheOutcome>), LodError> {
+        let start = Instant::now();
+        Self::check(tool, obstacles)?;
+        let (t, outcome) = load_or_build(tool, dir);
+        let mut outcomes = vec![outcome];
+        let mut hierarchies = Vec::with_capacity(obstacles.len());
+        for (m, pose) in obstacles {
+            let (h, o) = load_or_build(m, dir);
+            hierarchies.push((h, *pose));
+            outcomes.push(o);
+        }
+        Ok((Self::from_hierarchies(t, hierarchies, start), outcomes))
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::lod::testmesh;
+    use haptic_core::{CollisionBackend, ContactSet, QueryParams};
+
+    fn sphere() -> TriMesh {
+        testmesh::bumpy_sphere(2, 0.05, 0.0, 1)
+    }
+
+    fn saved(h: &Hierarchy, key: u64) -> Vec<u8> {
+        let mut bytes = Vec::new();
+        h.write_to(&mut bytes, key).unwrap();
+        bytes
+    }
+
+    #[test]
+    fn a_saved_hierarchy_reads_back_the_same() {
+        let mesh = sphere();
+        let h = Hierarchy::build(&mesh);
+        let key = hierarchy_key(&mesh);
+        let back = Hierarchy::read_from(&saved(&h, key)[..], key).unwrap();
+        assert_eq!(back.nodes, h.nodes);
+        assert_eq!(back.piece, h.piece);
+        assert_eq!(back.height(), h.height());
+        assert_eq!(back.triangle_count(), h.triangle_count());
+        assert_eq!(back.radius_about_origin_m(), h.radius_about_origin_m());
+    }
+
+    #[test]
+    fn truncated_foreign_other_and_corrupt_files_are_refused() {
+        let mesh = sphere();
+        let h = Hierarchy::build(&mesh);
+        let key = hierarchy_key(&mesh);
+        let bytes = saved(&h, key);
+        let cut = &bytes[..bytes.len() / 2];
+        assert!(matches!(
+            Hierarchy::read_from(cut, key),
+            Err(HierarchyFileError::Truncated)
+        ));
+        assert!(matches!(
+            Hierarchy::read_from(&b"solid cube\nfacet normal"[..], key),
+            Err(HierarchyFileError::NotAHierarchy)
+        ));
+        assert!(matches!(
+            Hierarchy::read_from(&b""[..], key),
+            Err(HierarchyFileError::NotAHierarchy)
+        ));
+        // Another mesh: the key differs.
+        let other = testmesh::bumpy_sphere(1, 0.05, 0.0, 1);
+        assert_ne!(hierarchy_key(&other), key);
+        assert!(matches!(
+            Hierarchy::read_from(&bytes[..], hierarchy_key(&other)),
+            Err(HierarchyFileError::OtherMesh { .. })
+        ));
+        // Another version.
+        let mut v2 = bytes.clone();
+        v2[10..14].copy_from_slice(&2u32.to_le_bytes());
+        assert!(matches!(
+            Hierarchy::read_from(&v2[..], key),
+            Err(HierarchyFileError::Version { found: 2 })
+        ));
+        // One flipped bit anywhere in the body: refused (hash, indices or values).
+        for at in [60, bytes.len() / 3, bytes.len() - 20] {
+            let mut bad = bytes.clone();
+            bad[at] ^= 0x10;
+            assert!(
+                matches!(
+                    Hierarchy::read_from(&bad[..], key),
+                    Err(HierarchyFileError::Corrupt(_) | HierarchyFileError::OtherMesh { .. })
+                ),
+                "a flipped bit at {at} was accepted"
+            );
+        }
+    }
+
+    #[test]
+    fn a_cached_backend_loads_the_second_time_and_answers_the_same() {
+        let dir = std::env::temp_dir().join(format!("haptic-lod-cache-{}", std::process::id()));
+        let _ = std::fs::remove_dir_all(&dir);
+        let tool = sphere();
+        let obstacle = testmesh::bumpy_sphere(2, 0.08, 0.0, 2);
+        let obstacles = [(obstacle, Pose::from_position(Vec3::new(0.125, 0.0, 0.0)))];
+        let (mut built, first) = LodBackend::with_cache(&tool, &obstacles, &dir).unwrap();
+        assert!(
+            first.iter().all(|o| matches!(o, CacheOutcome::Built(_))),
+            "{first:?}"
+        );
+        let (mut loaded, second) = LodBackend::with_cache(&tool, &obstacles, &dir).unwrap();
+        assert!(
+            second.iter().all(|o| matches!(o, CacheOutcome::Loaded(_))),
+            "{second:?}"
+        );
+        let params = QueryParams::new(0.01, 0.0).unwrap();
+        let pose = Pose::from_position(Vec3::new(0.0, 0.002, 0.0));
+        let (mut a, mut b) = (ContactSet::new(), ContactSet::new());
+        built.query(&pose, &params, &mut a).unwrap();
+        loaded.query(&pose, &params, &mut b).unwrap();
+        assert!(!a.is_empty());
+        assert_eq!(a.as_slice(), b.as_slice());
+        // A corrupt file is rebuilt and replaced, never used.
+        let CacheOutcome::Loaded(path) = &second[0] else {
+            unreachable!()
+        };
+        let mut bytes = std::fs::read(path).unwrap();
+        let at = bytes.len() / 2;
+        bytes[at] ^= 0xff;
+        std::fs::write(path, &bytes).unwrap();
+        let (_, third) = LodBackend::with_cache(&tool, &obstacles, &dir).unwrap();
+        assert!(
+            matches!(&third[0], CacheOutcome::Rebuilt(_, why) if why.contains("corrupt")),
+            "{third:?}"
+        );
+        let (_, fourth) = LodBackend::with_cache(&tool, &obstacles, &dir).unwrap();
+        assert!(matches!(fourth[0], CacheOutcome::Loaded(_)));
+        let _ = std::fs::remove_dir_all(&dir);
+    }
+}
