@@ -78,7 +78,7 @@ struct Poly2 {
 }
 
 /// Capacity of [`Poly2`]: a hexagon clipped by two hexagons' half-planes stays far below it.
-const POLY2_CAP: usize = 24;
+pub(crate) const POLY2_CAP: usize = 24;
 
 impl Default for Poly2 {
     fn default() -> Self {
@@ -537,10 +537,10 @@ fn final_deviation(
 }
 
 /// Most neighbouring nodes used to bound a piece's distance to the surface.
-const MAX_CANDIDATES: usize = 10;
+pub(crate) const MAX_CANDIDATES: usize = 10;
 
 /// Most convex regions tracked while cutting a piece along its neighbours' pieces.
-const MAX_REGIONS: usize = 32;
+pub(crate) const MAX_REGIONS: usize = 32;
 
 /// Upper bound on `sup_{q ∈ piece} dist(q, S)`, `S` the whole mesh surface.
 ///

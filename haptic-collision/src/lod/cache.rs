@@ -18,7 +18,7 @@ use std::time::Instant;
 
 use haptic_core::{Pose, Real, Vec3};
 
-use super::build::{Hierarchy, LEAF, Node};
+use super::build::{Hierarchy, Node};
 use super::{LodBackend, LodError};
 use crate::mesh::TriMesh;
 
@@ -86,12 +86,24 @@ impl Fnv {
     }
 }
 
-/// The key of `mesh`'s hierarchy: a hash of its vertices' and triangles' bits, the build's
-/// description and the format's version.
+/// The key of `mesh`'s hierarchy: a hash of the build (its description, the crate's version and
+/// the values of the constants it uses), the format's version, and the mesh's vertex and
+/// triangle counts and bits.
 pub fn hierarchy_key(mesh: &TriMesh) -> u64 {
     let mut h = Fnv::new();
     h.eat(BUILD.as_bytes());
+    h.eat(env!("CARGO_PKG_VERSION").as_bytes());
     h.eat(&FORMAT_VERSION.to_le_bytes());
+    for c in [
+        super::MAX_PIECE_VERTICES,
+        super::build::POLY2_CAP,
+        super::build::MAX_CANDIDATES,
+        super::build::MAX_REGIONS,
+        mesh.vertices().len(),
+        mesh.triangles().len(),
+    ] {
+        h.eat(&(c as u64).to_le_bytes());
+    }
     for v in mesh.vertices() {
         for c in v.iter() {
             h.eat(&c.to_le_bytes());
@@ -161,12 +173,7 @@ impl<R: Read> Reader<R> {
         Ok(u64::from_le_bytes(self.bytes()?))
     }
     fn f64(&mut self) -> Result<Real, HierarchyFileError> {
-        let v = Real::from_le_bytes(self.bytes()?);
-        if v.is_finite() {
-            Ok(v)
-        } else {
-            Err(HierarchyFileError::Corrupt("a value is not finite"))
-        }
+        Ok(Real::from_le_bytes(self.bytes()?))
     }
     fn vec3(&mut self) -> Result<Vec3, HierarchyFileError> {
         Ok(Vec3::new(self.f64()?, self.f64()?, self.f64()?))
@@ -210,13 +217,17 @@ impl Hierarchy {
         w.out.flush()
     }
 
-    /// Reads a hierarchy written by [`Hierarchy::write_to`], if it is the one of the mesh whose
-    /// [`hierarchy_key`] is `key`.
+    /// Reads a hierarchy written by [`Hierarchy::write_to`], if it is the one of `mesh` (its
+    /// [`hierarchy_key`]). The counts come from the mesh, so nothing is reserved on the file's
+    /// word; the tree is checked whole before it is returned (structure, pieces, values), so
+    /// that a query never indexes out of bounds or walks a malformed tree.
     ///
     /// # Errors
     /// [`HierarchyFileError`]: not a hierarchy file, another version, another mesh or build,
     /// cut short, or corrupt.
-    pub fn read_from(input: impl Read, key: u64) -> Result<Self, HierarchyFileError> {
+    pub fn read_from(input: impl Read, mesh: &TriMesh) -> Result<Self, HierarchyFileError> {
+        let key = hierarchy_key(mesh);
+        let expected_triangles = mesh.triangles().len();
         let start = Instant::now();
         let mut r = Reader {
             input,
@@ -240,24 +251,29 @@ impl Hierarchy {
                 expected: key,
             });
         }
-        let node_count =
-            usize::try_from(r.u64()?).map_err(|_| HierarchyFileError::Corrupt("node count"))?;
-        let piece_count =
-            usize::try_from(r.u64()?).map_err(|_| HierarchyFileError::Corrupt("piece count"))?;
-        let height =
-            usize::try_from(r.u64()?).map_err(|_| HierarchyFileError::Corrupt("height"))?;
-        let triangle_count =
-            usize::try_from(r.u64()?).map_err(|_| HierarchyFileError::Corrupt("triangle count"))?;
+        let (node_count, piece_count, height, triangle_count) =
+            (r.u64()?, r.u64()?, r.u64()?, r.u64()?);
         let radius = r.f64()?;
-        // A count beyond what a mesh of `triangle_count` triangles has is corrupt, not an
-        // allocation to attempt.
-        if triangle_count == 0
-            || node_count != 2 * triangle_count - 1
-            || piece_count > node_count.saturating_mul(super::MAX_PIECE_VERTICES)
+        // The counts a hierarchy of this mesh has; anything else is corrupt, not an allocation
+        // to attempt.
+        let nodes_expected = expected_triangles
+            .checked_mul(2)
+            .and_then(|n| n.checked_sub(1))
+            .ok_or(HierarchyFileError::Corrupt("counts"))?;
+        let pieces_max = nodes_expected.saturating_mul(super::MAX_PIECE_VERTICES);
+        if triangle_count != expected_triangles as u64
+            || node_count != nodes_expected as u64
+            || piece_count > pieces_max as u64
             || height > node_count
         {
             return Err(HierarchyFileError::Corrupt("counts"));
         }
+        let (node_count, piece_count, height, triangle_count) = (
+            nodes_expected,
+            piece_count as usize,
+            height as usize,
+            expected_triangles,
+        );
         let mut nodes = Vec::with_capacity(node_count);
         for _ in 0..node_count {
             let center = r.vec3()?;
@@ -288,18 +304,24 @@ impl Hierarchy {
         if stored != computed {
             return Err(HierarchyFileError::Corrupt("hash"));
         }
-        // Indices that the walk follows without checks.
-        for (i, n) in nodes.iter().enumerate() {
-            let piece_end = u64::from(n.piece_start) + u64::from(n.piece_len);
-            let right_ok =
-                n.right == LEAF || (n.right as usize > i && (n.right as usize) < node_count);
-            let leaf_ok = n.right != LEAF || (n.triangle as usize) < triangle_count;
-            if !right_ok || !leaf_ok || piece_end > piece_count as u64 || n.piece_len == 0 {
-                return Err(HierarchyFileError::Corrupt("node indices"));
-            }
-            if n.right != LEAF && i + 1 >= node_count {
-                return Err(HierarchyFileError::Corrupt("node indices"));
-            }
+        let mut rest = [0u8; 1];
+        let more = r
+            .input
+            .read(&mut rest)
+            .map_err(|source| HierarchyFileError::Io {
+                path: PathBuf::new(),
+                source,
+            })?;
+        if more != 0 {
+            return Err(HierarchyFileError::Corrupt("bytes after the hash"));
+        }
+        if !(radius.is_finite() && radius >= 0.0)
+            || piece.iter().any(|p| !p.iter().all(|c| c.is_finite()))
+        {
+            return Err(HierarchyFileError::Corrupt("a value is not finite"));
+        }
+        if check_tree(&nodes, piece_count, triangle_count)? != height {
+            return Err(HierarchyFileError::Corrupt("height"));
         }
         Ok(Hierarchy::from_parts(
             nodes,
@@ -310,6 +332,87 @@ impl Hierarchy {
             start.elapsed().as_secs_f64(),
         ))
     }
+}
+
+/// Checks a tree read from a file as the walk will use it, and returns its height:
+/// - pre-order, every node once: an inner node's left child is the next node and its right child
+///   the first node after the left subtree; leaves number `triangle_count`;
+/// - each node's `triangles` is its subtree's leaf count;
+/// - a leaf has its triangle (an index below `triangle_count`) as a piece of 3 vertices and
+///   deviation 0; an inner node a piece of 3 to `MAX_PIECE_VERTICES` vertices and a finite
+///   deviation, or none and an infinite deviation; every piece lies in `0..piece_count`;
+/// - every other value finite, radii, thicknesses and deviations not negative, normals unit.
+fn check_tree(
+    nodes: &[Node],
+    piece_count: usize,
+    triangle_count: usize,
+) -> Result<usize, HierarchyFileError> {
+    let corrupt = HierarchyFileError::Corrupt;
+    let mut stack: Vec<(usize, usize)> = vec![(0, 1)];
+    let (mut visited, mut leaves, mut height) = (0usize, 0usize, 0usize);
+    while let Some((i, level)) = stack.pop() {
+        if i != visited || i >= nodes.len() {
+            return Err(corrupt("tree structure"));
+        }
+        visited += 1;
+        height = height.max(level);
+        let n = &nodes[i];
+        let finite = [n.center, n.normal, n.plane_point]
+            .iter()
+            .all(|v| v.iter().all(|c| c.is_finite()))
+            && n.radius.is_finite()
+            && n.half_thickness.is_finite();
+        if !finite
+            || n.radius < 0.0
+            || n.half_thickness < 0.0
+            || n.deviation.is_nan()
+            || n.deviation < 0.0
+            || (n.normal.norm() - 1.0).abs() > 1e-6
+        {
+            return Err(corrupt("node values"));
+        }
+        if u64::from(n.piece_start) + u64::from(n.piece_len) > piece_count as u64 {
+            return Err(corrupt("piece indices"));
+        }
+        if n.is_leaf() {
+            if n.triangle as usize >= triangle_count || n.piece_len != 3 || n.deviation != 0.0 {
+                return Err(corrupt("leaf"));
+            }
+            leaves += 1;
+        } else {
+            let piece_ok = if n.piece_len == 0 {
+                n.deviation == Real::INFINITY
+            } else {
+                n.deviation.is_finite()
+                    && (3..=super::MAX_PIECE_VERTICES as u32).contains(&n.piece_len)
+            };
+            let right = n.right as usize;
+            if !piece_ok || right <= i + 1 || right >= nodes.len() {
+                return Err(corrupt("inner node"));
+            }
+            // Left (the next node) first: the right child must come right after the left
+            // subtree.
+            stack.push((right, level + 1));
+            stack.push((i + 1, level + 1));
+        }
+    }
+    if visited != nodes.len() || leaves != triangle_count {
+        return Err(corrupt("tree structure"));
+    }
+    // Leaf counts, children first (they come after their parent).
+    let mut below = vec![0u32; nodes.len()];
+    for i in (0..nodes.len()).rev() {
+        let n = &nodes[i];
+        below[i] = if n.is_leaf() {
+            1
+        } else {
+            below[i + 1].saturating_add(below[n.right as usize])
+        };
+        if below[i] != n.triangles {
+            return Err(corrupt("triangle counts"));
+        }
+    }
+    Ok(height)
 }
 
 /// How each hierarchy of a [`LodBackend::with_cache`] came to be.
@@ -330,18 +433,33 @@ fn load_or_build(mesh: &TriMesh, dir: &Path) -> (Hierarchy, CacheOutcome) {
     let key = hierarchy_key(mesh);
     let path = dir.join(format!("lod-{key:016x}.bin"));
     let why = match std::fs::File::open(&path) {
-        Ok(f) => match Hierarchy::read_from(std::io::BufReader::new(f), key) {
+        Ok(f) => match Hierarchy::read_from(std::io::BufReader::new(f), mesh) {
             Ok(h) => return (h, CacheOutcome::Loaded(path)),
+            Err(HierarchyFileError::Io { source, .. }) => Some(
+                HierarchyFileError::Io {
+                    path: path.clone(),
+                    source,
+                }
+                .to_string(),
+            ),
             Err(e) => Some(e.to_string()),
         },
         Err(e) if e.kind() == std::io::ErrorKind::NotFound => None,
         Err(e) => Some(e.to_string()),
     };
     let h = Hierarchy::build(mesh);
-    // Written beside and renamed: a reader never sees half a file.
-    let tmp = dir.join(format!("lod-{key:016x}.bin.{}.tmp", std::process::id()));
+    // Written beside under a name of its own (process, and a counter across threads) and
+    // renamed: a reader never sees half a file, and two writers never share one.
+    static WRITES: std::sync::atomic::AtomicU64 = std::sync::atomic::AtomicU64::new(0);
+    let n = WRITES.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
+    let tmp = dir.join(format!("lod-{key:016x}.bin.{}-{n}.tmp", std::process::id()));
     let written = std::fs::create_dir_all(dir)
-        .and_then(|()| std::fs::File::create(&tmp))
+        .and_then(|()| {
+            std::fs::OpenOptions::new()
+                .write(true)
+                .create_new(true)
+                .open(&tmp)
+        })
         .and_then(|f| h.write_to(std::io::BufWriter::new(f), key))
         .and_then(|()| std::fs::rename(&tmp, &path));
     let outcome = match (written, why) {
@@ -368,14 +486,23 @@ impl LodBackend {
         obstacles: &[(TriMesh, Pose)],
         dir: &Path,
     ) -> Result<(Self, Vec<CacheOutcome>), LodError> {
+        use rayon::prelude::*;
         let start = Instant::now();
         Self::check(tool, obstacles)?;
-        let (t, outcome) = load_or_build(tool, dir);
+        // Both sides at once, as `new` builds them.
+        let ((t, outcome), rest) = rayon::join(
+            || load_or_build(tool, dir),
+            || {
+                obstacles
+                    .par_iter()
+                    .map(|(m, pose)| (load_or_build(m, dir), *pose))
+                    .collect::<Vec<_>>()
+            },
+        );
         let mut outcomes = vec![outcome];
         let mut hierarchies = Vec::with_capacity(obstacles.len());
-        for (m, pose) in obstacles {
-            let (h, o) = load_or_build(m, dir);
-            hierarchies.push((h, *pose));
+        for ((h, o), pose) in rest {
+            hierarchies.push((h, pose));
             outcomes.push(o);
         }
         Ok((Self::from_hierarchies(t, hierarchies, start), outcomes))
@@ -403,7 +530,7 @@ mod tests {
         let mesh = sphere();
         let h = Hierarchy::build(&mesh);
         let key = hierarchy_key(&mesh);
-        let back = Hierarchy::read_from(&saved(&h, key)[..], key).unwrap();
+        let back = Hierarchy::read_from(&saved(&h, key)[..], &mesh).unwrap();
         assert_eq!(back.nodes, h.nodes);
         assert_eq!(back.piece, h.piece);
         assert_eq!(back.height(), h.height());
@@ -419,29 +546,29 @@ mod tests {
         let bytes = saved(&h, key);
         let cut = &bytes[..bytes.len() / 2];
         assert!(matches!(
-            Hierarchy::read_from(cut, key),
+            Hierarchy::read_from(cut, &mesh),
             Err(HierarchyFileError::Truncated)
         ));
         assert!(matches!(
-            Hierarchy::read_from(&b"solid cube\nfacet normal"[..], key),
+            Hierarchy::read_from(&b"solid cube\nfacet normal"[..], &mesh),
             Err(HierarchyFileError::NotAHierarchy)
         ));
         assert!(matches!(
-            Hierarchy::read_from(&b""[..], key),
+            Hierarchy::read_from(&b""[..], &mesh),
             Err(HierarchyFileError::NotAHierarchy)
         ));
         // Another mesh: the key differs.
         let other = testmesh::bumpy_sphere(1, 0.05, 0.0, 1);
         assert_ne!(hierarchy_key(&other), key);
         assert!(matches!(
-            Hierarchy::read_from(&bytes[..], hierarchy_key(&other)),
+            Hierarchy::read_from(&bytes[..], &other),
             Err(HierarchyFileError::OtherMesh { .. })
         ));
         // Another version.
         let mut v2 = bytes.clone();
         v2[10..14].copy_from_slice(&2u32.to_le_bytes());
         assert!(matches!(
-            Hierarchy::read_from(&v2[..], key),
+            Hierarchy::read_from(&v2[..], &mesh),
             Err(HierarchyFileError::Version { found: 2 })
         ));
         // One flipped bit anywhere in the body: refused (hash, indices or values).
@@ -450,12 +577,63 @@ mod tests {
             bad[at] ^= 0x10;
             assert!(
                 matches!(
-                    Hierarchy::read_from(&bad[..], key),
+                    Hierarchy::read_from(&bad[..], &mesh),
                     Err(HierarchyFileError::Corrupt(_) | HierarchyFileError::OtherMesh { .. })
                 ),
                 "a flipped bit at {at} was accepted"
             );
         }
+    }
+
+    /// Files whose hash holds (a forger can compute it) but whose tree would mislead the walk.
+    #[test]
+    fn forged_trees_are_refused() {
+        let mesh = sphere();
+        let h = Hierarchy::build(&mesh);
+        let key = hierarchy_key(&mesh);
+        let forged = |edit: &dyn Fn(&mut Hierarchy)| {
+            let mut f = h.clone();
+            edit(&mut f);
+            Hierarchy::read_from(&saved(&f, key)[..], &mesh)
+        };
+        let inner = h.nodes.iter().position(|n| !n.is_leaf()).unwrap();
+        let leaf = h.nodes.iter().position(Node::is_leaf).unwrap();
+        type Edit<'a> = &'a dyn Fn(&mut Hierarchy);
+        let cases: [(&str, Edit<'_>); 6] = [
+            // Two parents sharing a child: an exponential walk.
+            ("shared child", &|f: &mut Hierarchy| {
+                f.nodes[inner].right = inner as u32 + 1
+            }),
+            // A piece longer than the walk's buffers.
+            ("long piece", &|f: &mut Hierarchy| {
+                f.nodes[inner].piece_len = 7
+            }),
+            ("leaf triangle", &|f: &mut Hierarchy| {
+                f.nodes[leaf].triangle = u32::MAX - 1
+            }),
+            ("leaf count", &|f: &mut Hierarchy| f.nodes[0].triangles += 1),
+            ("normal", &|f: &mut Hierarchy| f.nodes[inner].normal *= 2.0),
+            ("nan", &|f: &mut Hierarchy| f.nodes[leaf].radius = Real::NAN),
+        ];
+        for (what, edit) in cases {
+            assert!(
+                matches!(forged(edit), Err(HierarchyFileError::Corrupt(_))),
+                "{what} was accepted"
+            );
+        }
+        // Bytes after the end.
+        let mut long = saved(&h, key);
+        long.push(0);
+        assert!(matches!(
+            Hierarchy::read_from(&long[..], &mesh),
+            Err(HierarchyFileError::Corrupt(_))
+        ));
+        // An inner node without a usable piece (infinite deviation) is a valid tree.
+        let none = forged(&|f: &mut Hierarchy| {
+            f.nodes[inner].piece_len = 0;
+            f.nodes[inner].deviation = Real::INFINITY;
+        });
+        assert!(none.is_ok(), "{none:?}");
     }
 
     #[test]

@@ -257,24 +257,27 @@ fn emit_coarse(
     let count = fan_samples(a, &mut pts, budget);
     let piece = PlanarPiece::new(b, nb);
     for x in &pts[..count] {
-        let Some((c, d)) = piece.closest_within(x, delta) else {
+        let Some((c, _)) = piece.closest_within(x, delta) else {
             continue;
         };
-        // The normal normalised by the points' own difference (see `convex_polygon_pair`).
+        // Distance and normal from the 3-D points themselves: the planar frame's distance `d`
+        // can differ from `|c − x|` by rounding, and at a few ulps from the piece that made a
+        // normal of norm √5 (seen on gears in mesh, whose flat faces are coarse pieces even at
+        // threshold 0).
         let gap = c - x;
         let len = gap.norm();
-        if d <= 0.0 || len <= 0.0 {
+        if !(len > 0.0 && len.is_finite()) {
             continue;
         }
         let sample = PairContact {
             p_a: *x,
             p_b: c,
             n: gap / len,
-            depth: -d,
-            distance: d,
+            depth: -len,
+            distance: len,
         };
         frames.emit(&sample, NO_FEATURE, NO_FEATURE, out)?;
-        nearest = nearest.min(d);
+        nearest = nearest.min(len);
     }
     Ok(nearest)
 }
@@ -424,6 +427,34 @@ mod tests {
     }
 
     proptest! {
+        /// Samples a few ulps off a tilted obstacle piece give contacts with unit normals, and
+        /// `p_a − p_b = depth · n` (the query failed on these before the normal and the
+        /// distance were taken from the same 3-D points).
+        #[test]
+        fn coarse_samples_near_a_piece_give_valid_contacts(
+            n in arb_vec().prop_filter("non-zero", |n| n.norm() > 0.1),
+            o in arb_vec(),
+            phase in 0.0..6.3f64,
+            ulps in 0i64..6,
+        ) {
+            let n = n.normalize();
+            let b = polygon(4, o, n, (0.02, 0.015), phase);
+            // The tool piece: the obstacle's, lifted by a few ulps along its normal.
+            let lift = n * (ulps as Real * Real::EPSILON * o.norm().max(1.0));
+            let a: Vec<Vec3> = polygon(4, o + lift, n, (0.01, 0.008), phase + 0.3)
+                .into_iter()
+                .rev()
+                .collect();
+            let frames = Frames::new(&Pose::identity(), &Pose::identity());
+            let mut out = ContactSet::new();
+            let r = emit_coarse(&a, 64, &(-n), &b, &n, 1e-3, &frames, &mut out);
+            prop_assert!(r.is_ok(), "{r:?}");
+            for c in out.iter() {
+                prop_assert!((c.n.norm() - 1.0).abs() < 1e-9);
+                prop_assert!((c.p_a - c.p_b - c.n * c.depth_m).norm() < 1e-15);
+            }
+        }
+
         /// The planar-frame distance agrees with the general point–polygon routine.
         #[test]
         fn planar_piece_matches_point_polygon(

@@ -671,7 +671,7 @@ pub(super) fn jaws_poses(com: &Vec3) -> Vec<Pose> {
 }
 
 /// A tool approaching an obstacle along `−up` with a fixed orientation: the first offset with a
-/// contact within `δ` (LOD at threshold 0; a march, then bisection), then 200 poses around it: ±`δ` along
+/// contact within `δ` (LOD at threshold 0; a march, then bisection), then `n_poses` poses around it: ±`δ` along
 /// `up`, ±2δ sideways, ±0.3° of tilt.
 pub(super) fn approach_poses(
     tool: &TriMesh,
