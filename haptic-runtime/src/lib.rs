@@ -59,6 +59,7 @@
 //! # Ok(()) }
 //! ```
 
+pub mod budget;
 pub mod error;
 pub mod pipeline;
 pub mod recording;
@@ -67,6 +68,7 @@ pub mod scene;
 pub mod stages;
 pub mod telemetry;
 
+pub use budget::{QueryBudget, ThresholdController};
 pub use error::RuntimeError;
 pub use pipeline::{ContactLatency, Pipeline, PipelineBuilder, PipelineConfig, REALTIME_PRIORITY};
 pub use recording::{RunObserver, RunRecorder, RunRecording};

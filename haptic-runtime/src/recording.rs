@@ -151,7 +151,8 @@ impl Frame {
 
 impl UpdateRecord {
     /// The record of a contact query at `t_s` that takes effect at `available_s`: the deepest
-    /// `cap` raw contacts (sorted in `scratch`, reused) and the representatives.
+    /// `cap` raw contacts (sorted in `scratch`, reused), the representatives, and the threshold
+    /// the query used.
     #[allow(clippy::too_many_arguments)]
     pub fn of(
         t_s: Real,
@@ -161,7 +162,6 @@ impl UpdateRecord {
         representatives: &ContactSet,
         representative_weights_m: &[Real],
         query_time_s: Real,
-        threshold: Real,
         cap: usize,
         scratch: &mut Vec<Contact>,
     ) -> Self {
@@ -173,7 +173,7 @@ impl UpdateRecord {
             t: t_s,
             available_t: available_s,
             query_time_s,
-            threshold,
+            threshold: update.error_threshold,
             raw_contact_count: update.raw_contact_count,
             raw: scratch.iter().map(contact_record).collect(),
             representatives: representatives.iter().map(contact_record).collect(),
@@ -408,7 +408,6 @@ impl<W: Write, I: haptic_core::Integrator, D: haptic_core::Device> RunObserver<I
             representatives,
             representative_weights_m,
             query_time_s,
-            self.threshold,
             self.contact_cap,
             &mut scratch,
         );

@@ -39,6 +39,8 @@ pub struct ContactUpdate {
     pub max_penetration_m: Real,
     /// Whether the broad phase found nothing near the tool (no further work was done).
     pub broad_phase_only: bool,
+    /// The error threshold the query used (fraction of the tool's bounding radius).
+    pub error_threshold: Real,
 }
 
 impl ContactUpdate {
@@ -52,6 +54,7 @@ impl ContactUpdate {
             cluster_count: 0,
             max_penetration_m: 0.0,
             broad_phase_only: true,
+            error_threshold: 0.0,
         }
     }
 }
@@ -83,6 +86,8 @@ pub struct ContactStage<B, C> {
     raw: ContactSet,
     representatives: ContactSet,
     seq: u64,
+    /// With a time budget, the threshold of each query.
+    budget: Option<crate::ThresholdController>,
 }
 
 impl<B: CollisionBackend, C: ContactModel> ContactStage<B, C> {
@@ -103,7 +108,15 @@ impl<B: CollisionBackend, C: ContactModel> ContactStage<B, C> {
             raw: ContactSet::with_capacity(256),
             representatives: ContactSet::with_capacity(16),
             seq: 0,
+            budget: None,
         }
+    }
+
+    /// The stage with a time budget per update (`None`: the fixed threshold of its query
+    /// parameters): each query's threshold is picked from the cost of the updates before.
+    pub fn with_budget(mut self, budget: Option<crate::QueryBudget>) -> Self {
+        self.budget = budget.map(crate::ThresholdController::new);
+        self
     }
 
     /// The collision back-end.
@@ -141,6 +154,23 @@ impl<B: CollisionBackend, C: ContactModel> ContactStage<B, C> {
         tool: &ToolState,
         time_s: Real,
     ) -> Result<ContactUpdate, ContactStageError> {
+        let started = std::time::Instant::now();
+        if let Some(b) = &self.budget {
+            self.params.error_threshold = b.threshold();
+        }
+        let result = self.update_at_threshold(tool, time_s);
+        if let Some(b) = &mut self.budget {
+            b.observe(started.elapsed().as_secs_f64());
+        }
+        result
+    }
+
+    /// One update at the current query parameters.
+    fn update_at_threshold(
+        &mut self,
+        tool: &ToolState,
+        time_s: Real,
+    ) -> Result<ContactUpdate, ContactStageError> {
         let stats = self
             .backend
             .query(&tool.pose(), &self.params, &mut self.raw)
@@ -149,6 +179,7 @@ impl<B: CollisionBackend, C: ContactModel> ContactStage<B, C> {
         let mut update = ContactUpdate {
             seq: self.seq,
             query_time_s: time_s,
+            error_threshold: self.params.error_threshold,
             ..ContactUpdate::none()
         };
         if self.raw.is_empty() {

@@ -302,6 +302,13 @@ pub struct Summary {
     pub contact_stale_steps: u64,
     /// Whether the contact thread panicked (the haptic thread went on without it).
     pub contact_thread_panicked: bool,
+    /// Median error threshold of the updates with contacts (fraction of the tool's bounding
+    /// radius): the scene's, or what a time budget picked.
+    #[serde(default)]
+    pub error_threshold_median: Real,
+    /// Largest error threshold of the updates with contacts.
+    #[serde(default)]
+    pub error_threshold_max: Real,
     /// The message of a panic that ended the haptic loop (zero force was commanded), if any.
     pub haptic_thread_panic: Option<String>,
     /// What happened to the contact thread or the device, in words; empty when all went well.
@@ -340,10 +347,12 @@ impl std::fmt::Display for Summary {
         )?;
         writeln!(
             f,
-            "contacts      {} raw at most, {} clusters at most; max penetration {:.3} mm",
+            "contacts      {} raw at most, {} clusters at most; max penetration {:.3} mm; error threshold {:.2} % (median; max {:.2} %)",
             s.raw_contact_count_max,
             s.cluster_count_max,
-            s.max_penetration_m * 1e3
+            s.max_penetration_m * 1e3,
+            s.error_threshold_median * 100.0,
+            s.error_threshold_max * 100.0
         )?;
         writeln!(
             f,

@@ -38,6 +38,10 @@ pub struct DemoArgs {
     /// Haptic rate (Hz), instead of the scene's (up to 20,000).
     #[arg(long)]
     pub haptic_hz: Option<f64>,
+    /// A time budget per contact update (ms): the error threshold is then picked update by
+    /// update to fit it, instead of the scene's (e.g. 4 for a 250 Hz contact thread).
+    #[arg(long)]
+    pub query_budget_ms: Option<f64>,
     /// Do not ask the OS for real-time scheduling and core pinning (to measure without them).
     #[arg(long)]
     pub no_realtime_scheduling: bool,
@@ -76,6 +80,10 @@ pub fn run(args: &DemoArgs) -> anyhow::Result<()> {
         parts.config.realtime_scheduling = false;
     }
     parts.config.validate().context("--haptic-hz")?;
+    if let Some(ms) = args.query_budget_ms {
+        parts.config.query_budget =
+            Some(haptic_runtime::QueryBudget::new(ms * 1e-3).context("--query-budget-ms")?);
+    }
     println!(
         "scene `{}`: tool {} triangles, {:.1} g; {} obstacle(s), {} triangles",
         scene.name,

@@ -169,7 +169,8 @@ impl<I: Integrator, B: CollisionBackend, C: ContactModel, D: Device> PipelineBui
                 clusterer,
                 body,
                 config.query,
-            ),
+            )
+            .with_budget(config.query_budget),
             config,
             live: std::sync::Arc::new(LiveTelemetry::default()),
         })

@@ -24,6 +24,10 @@ pub struct PipelineConfig {
     pub safety: SafetyConfig,
     /// Try to raise the haptic thread's priority and pin the threads to cores.
     pub realtime_scheduling: bool,
+    /// A time budget per contact update: the error threshold is then picked update by update
+    /// to fit it ([`crate::budget`]), and `query.error_threshold` is not used. `None` (the
+    /// default): every query at `query.error_threshold`.
+    pub query_budget: Option<crate::QueryBudget>,
 }
 
 impl Default for PipelineConfig {
@@ -39,6 +43,7 @@ impl Default for PipelineConfig {
             gravity: None,
             safety: SafetyConfig::default(),
             realtime_scheduling: true,
+            query_budget: None,
         }
     }
 }
@@ -57,6 +62,9 @@ impl PipelineConfig {
                 "haptic_rate_hz",
                 "must be in [1, 20000] Hz",
             ));
+        }
+        if let Some(b) = &self.query_budget {
+            b.validate()?;
         }
         QueryParams::new(self.query.delta_m, self.query.error_threshold)
             .map_err(|e| RuntimeError::config("query", e.to_string()))?;

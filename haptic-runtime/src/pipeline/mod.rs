@@ -36,6 +36,8 @@ struct ContactStats {
     panicked: Option<String>,
     first_update_s: Option<Real>,
     last_update_s: Real,
+    /// The error threshold of each update with contacts (a budget picks them).
+    thresholds: Vec<Real>,
 }
 
 impl ContactStats {
@@ -50,6 +52,18 @@ impl ContactStats {
         self.max_penetration_m = self.max_penetration_m.max(u.max_penetration_m);
         self.first_update_s.get_or_insert(available_s);
         self.last_update_s = available_s;
+        if !u.broad_phase_only {
+            self.thresholds.push(u.error_threshold);
+        }
+    }
+
+    /// The `f`-quantile of the thresholds of the updates with contacts (0 without any).
+    fn threshold_quantile(&self, f: Real) -> Real {
+        let mut t = self.thresholds.clone();
+        t.sort_by(Real::total_cmp);
+        t.get(((t.len().max(1) - 1) as Real * f).round() as usize)
+            .copied()
+            .unwrap_or(0.0)
     }
 
     fn rate_hz(&self, duration_s: Real) -> Real {
@@ -173,6 +187,8 @@ impl<I: Integrator, B: CollisionBackend, C: ContactModel, D: Device> Pipeline<I,
             contact_errors: c.errors,
             contact_stale_steps: h.stale_steps,
             contact_thread_panicked: c.panicked.is_some(),
+            error_threshold_median: c.threshold_quantile(0.5),
+            error_threshold_max: c.threshold_quantile(1.0),
             haptic_thread_panic: None,
             incidents,
             realtime_scheduling_granted: false,

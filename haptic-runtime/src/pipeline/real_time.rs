@@ -170,7 +170,6 @@ struct RecordBuffers<'a> {
 struct UpdateBuffer<'a> {
     updates: &'a mut Vec<UpdateRecord>,
     cap: usize,
-    threshold: Real,
     scratch: Vec<haptic_core::Contact>,
 }
 
@@ -286,7 +285,6 @@ fn contact_thread_loop<B: CollisionBackend, C: ContactModel>(
                         contact.representatives(),
                         contact.representative_weights(),
                         latency,
-                        r.threshold,
                         r.cap,
                         &mut r.scratch,
                     ));
@@ -375,7 +373,6 @@ where
             updates: UpdateBuffer {
                 updates: &mut updates,
                 cap: recorder.contact_cap(),
-                threshold: recorder.threshold(),
                 scratch: Vec::new(),
             },
         };

@@ -147,6 +147,13 @@ impl Scene {
             } else {
                 haptic_core::LinearizationMode::Constant
             },
+            query_budget: match self.contact.time_budget_s {
+                Some(b) => Some(
+                    crate::QueryBudget::new(b)
+                        .map_err(|e| invalid("contact.time_budget_s", e.to_string()))?,
+                ),
+                None => None,
+            },
             ..crate::PipelineConfig::default()
         };
         let tool_pose = self.tool.pose.pose();

@@ -157,6 +157,9 @@ pub struct ContactSpec {
     pub error_threshold: Real,
     /// Linearized contact model (true) or forces held constant between updates.
     pub linearized: bool,
+    /// A time budget per contact update (s): the error threshold is then picked update by
+    /// update to fit it, and `error_threshold` is not used (see `haptic_runtime::budget`).
+    pub time_budget_s: Option<Real>,
 }
 
 impl Default for ContactSpec {
@@ -168,6 +171,7 @@ impl Default for ContactSpec {
             clusters: 5,
             error_threshold: 0.0,
             linearized: true,
+            time_budget_s: None,
         }
     }
 }
@@ -362,6 +366,9 @@ impl Scene {
                 "rates.haptic_hz",
                 "must be between 1 Hz and 20 kHz",
             ));
+        }
+        if let Some(b) = self.contact.time_budget_s {
+            positive("contact.time_budget_s", b)?;
         }
         if let Some(c) = self.rates.contact_hz {
             positive("rates.contact_hz", c)?;
