@@ -129,7 +129,11 @@ mod tests {
             let t = c.threshold();
             c.observe(cost(t));
         }
-        assert!((c.threshold() - 0.025).abs() < 0.025 * 0.01, "{}", c.threshold());
+        assert!(
+            (c.threshold() - 0.025).abs() < 0.025 * 0.01,
+            "{}",
+            c.threshold()
+        );
         assert!((cost(c.threshold()) - 2e-3).abs() < 2e-3 * 0.01);
     }
 

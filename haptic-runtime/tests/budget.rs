@@ -32,7 +32,10 @@ fn run_with(budget_s: f64) -> Summary {
 fn cheap_updates_stay_at_the_finest_threshold() {
     // The box's query takes microseconds: a second's budget is never reached.
     let s = run_with(1.0);
-    assert!(s.raw_contact_count_max > 0, "the box never touched the floor");
+    assert!(
+        s.raw_contact_count_max > 0,
+        "the box never touched the floor"
+    );
     assert_eq!(s.error_threshold_median, 0.001);
     assert_eq!(s.error_threshold_max, 0.001);
 }
