@@ -15,6 +15,9 @@
 //! - `collision_jaws`: `ParryBackend`, `LodBackend` exact and at 2.5 % of the tool's bounding
 //!   radius, on the same 200 jaws poses (the collision benchmark's path: the upper jaw in
 //!   occlusion, moved by up to 0.5 mm and 0.3°), δ = 1 mm, interleaved pose by pose in one run.
+//! - `contact_stage_jaws`: the whole contact stage of the runtime (`ContactStage::update`: the
+//!   LOD query, clustering and the linearized model) on the same poses at 2.5 % and 0.4 %,
+//!   beside parry's query of the same run (`parry_median_s` and the ratios).
 //! - `build_jaws_s`, `build_jaws_bytes`: `LodBackend::new` on the jaws, and its heap memory;
 //!   `load_jaws_s`: the same hierarchies read back from their saved files.
 //! - `free_space_contact_step_median_s`: the contact stage in free space: `LodBackend::query`
@@ -278,6 +281,42 @@ pub fn run(out: &crate::OutArgs) -> anyhow::Result<()> {
         n_25 as Real / np
     );
 
+    // The whole contact stage (query, clustering, linearization) at 2.5 % and 0.4 %, with the
+    // hierarchies read back from the files saved above.
+    let mass = tool.mass_properties(1.0)?;
+    let body = tool.mass_properties(0.1 / mass.volume_m3)?.rigid_body()?;
+    let stage_times = |threshold: Real| -> anyhow::Result<Vec<Real>> {
+        let (backend, _) = LodBackend::with_cache(&tool, &obstacles, &cache)?;
+        let mut stage = haptic_runtime::ContactStage::new(
+            backend,
+            haptic_dynamics::PenaltyModel::new(haptic_dynamics::PenaltyParams::new(
+                5000.0, 2.0, DELTA_M,
+            )?)?,
+            Clusterer::new(ClusterParams::default())?,
+            body,
+            QueryParams::new(DELTA_M, threshold)?,
+        );
+        let mut times = Vec::with_capacity(passes * poses.len());
+        for _ in 0..passes {
+            for (k, pose) in poses.iter().enumerate() {
+                let state = ToolState::at_rest(pose);
+                let clock = Instant::now();
+                black_box(stage.update(&state, k as Real * 1e-3)?);
+                times.push(clock.elapsed().as_secs_f64());
+            }
+        }
+        Ok(times)
+    };
+    let (stage25_med, _, _) = quantiles(&mut stage_times(0.025)?);
+    let (stage04_med, _, _) = quantiles(&mut stage_times(0.004)?);
+    println!(
+        "jaws contact stage (median): {:.3} ms at 2.5 % ({:.1}× parry's query), {:.3} ms at 0.4 % ({:.1}×)",
+        stage25_med * 1e3,
+        parry_med / stage25_med,
+        stage04_med * 1e3,
+        parry_med / stage04_med
+    );
+
     // Free-space contact step: broad-phase rejection and the empty-set handling.
     let far = Pose {
         position: com + Vec3::new(0.0, 0.0, 1.0),
@@ -325,6 +364,13 @@ pub fn run(out: &crate::OutArgs) -> anyhow::Result<()> {
             poses: poses.len(),
             passes,
             delta_m: DELTA_M,
+        },
+        contact_stage_jaws: ContactStageJaws {
+            lod_2_5_median_s: stage25_med,
+            lod_0_4_median_s: stage04_med,
+            parry_median_s: parry_med,
+            ratio_parry_to_lod_2_5: parry_med / stage25_med,
+            ratio_parry_to_lod_0_4: parry_med / stage04_med,
         },
         build_jaws_s: build_s,
         load_jaws_s: load_s,
@@ -381,6 +427,16 @@ struct CollisionJaws {
     delta_m: Real,
 }
 
+/// The runtime's whole contact stage on the jaws, beside parry's query of the same run.
+#[derive(Serialize)]
+struct ContactStageJaws {
+    lod_2_5_median_s: Real,
+    lod_0_4_median_s: Real,
+    parry_median_s: Real,
+    ratio_parry_to_lod_2_5: Real,
+    ratio_parry_to_lod_0_4: Real,
+}
+
 /// How the figures were taken.
 #[derive(Serialize)]
 struct PerfSetup {
@@ -401,6 +457,7 @@ struct PerfReport {
     haptic_step: BTreeMap<&'static str, BTreeMap<&'static str, StepTimes>>,
     cluster_50_to_5_median_s: Real,
     collision_jaws: CollisionJaws,
+    contact_stage_jaws: ContactStageJaws,
     build_jaws_s: Real,
     /// `LodBackend::with_cache` on the jaws with both hierarchies saved: reading them back (s).
     load_jaws_s: Real,
