@@ -2,12 +2,16 @@
 //! rate), not an error threshold, and the contact stage picks the threshold.
 //!
 //! The LOD back-end's cost falls as its error threshold grows (coarser pieces, fewer pairs):
-//! about as `c / θ` on the jaws between 0.4 % and 5 %. After each update the
+//! on the jaws the whole contact stage goes as about `θ^-½` between 0.4 % and 2.5 % (16.7 ms
+//! and 6.4 ms, `docs/performance.md`). After each update that found contacts the
 //! [`ThresholdController`] moves the threshold by the square root of the ratio of the update's
 //! measured cost to the budget, in log space (`θ ← θ · (t / budget)^½`, at most ×4 or ÷4 a
-//! step), within `[min_threshold, max_threshold]`: a cost `c / θ` converges to the budget
-//! geometrically, and one slow update (a page fault, a busy core) moves it by half its excess
-//! only. Each update reports the threshold it was computed at.
+//! step), within `[min_threshold, max_threshold]`: a cost `c θ^-p` converges to the budget
+//! geometrically (each step removes a share `p/2` of the log error), and one slow update (a
+//! page fault, a busy core) moves it by half its excess only. Updates in free space and failed
+//! ones do not move it. Each update reports the threshold it was computed at. A budget that the
+//! coarsest threshold cannot meet is not met: the threshold stays at its ceiling (on the jaws'
+//! benchmark poses, 10 % costs about a third of 0.4 %).
 //!
 //! This is a controller across updates, not a refinement within one query that stops when the
 //! time is up: an update may overrun when the contact changes abruptly (the next one is
@@ -92,6 +96,19 @@ impl ThresholdController {
         }
     }
 
+    /// A controller starting at `threshold`, brought within the budget's range.
+    pub fn starting_at(budget: QueryBudget, threshold: Real) -> Self {
+        let t = if threshold.is_finite() {
+            threshold
+        } else {
+            budget.min_threshold
+        };
+        Self {
+            budget,
+            threshold: t.clamp(budget.min_threshold, budget.max_threshold),
+        }
+    }
+
     /// The threshold for the next update.
     pub fn threshold(&self) -> Real {
         self.threshold
@@ -135,6 +152,27 @@ mod tests {
             c.threshold()
         );
         assert!((cost(c.threshold()) - 2e-3).abs() < 2e-3 * 0.01);
+    }
+
+    /// With the jaws' cost `c θ^-½`, it settles too, more slowly.
+    #[test]
+    fn a_cost_in_the_inverse_square_root_settles_on_the_budget() {
+        let budget = QueryBudget::new(8e-3).unwrap();
+        let mut c = ThresholdController::starting_at(budget, 0.025);
+        let cost = |t: Real| 1e-3 / t.sqrt(); // 10 ms at 1 %, 8 ms at 1.56 %
+        for _ in 0..80 {
+            let t = c.threshold();
+            c.observe(cost(t));
+        }
+        assert!(
+            (cost(c.threshold()) - 8e-3).abs() < 8e-3 * 0.01,
+            "{}",
+            c.threshold()
+        );
+        assert_eq!(
+            ThresholdController::starting_at(budget, 0.0).threshold(),
+            budget.min_threshold
+        );
     }
 
     /// A fast machine stays at the finest threshold, a slow one at the coarsest; one slow

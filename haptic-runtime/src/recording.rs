@@ -354,7 +354,8 @@ impl<W: Write> RunRecorder<W> {
         self.contact_cap
     }
 
-    /// The error threshold recorded with each update.
+    /// The error threshold the recorder was made with (the run's configured one). Each update
+    /// records the threshold its own query used, which a time budget picks.
     pub fn threshold(&self) -> Real {
         self.threshold
     }

@@ -113,9 +113,12 @@ impl<B: CollisionBackend, C: ContactModel> ContactStage<B, C> {
     }
 
     /// The stage with a time budget per update (`None`: the fixed threshold of its query
-    /// parameters): each query's threshold is picked from the cost of the updates before.
+    /// parameters): each query's threshold is picked from the cost of the updates with
+    /// contacts before it, starting at the query parameters' threshold (within the budget's
+    /// range).
     pub fn with_budget(mut self, budget: Option<crate::QueryBudget>) -> Self {
-        self.budget = budget.map(crate::ThresholdController::new);
+        self.budget =
+            budget.map(|b| crate::ThresholdController::starting_at(b, self.params.error_threshold));
         self
     }
 
@@ -154,13 +157,19 @@ impl<B: CollisionBackend, C: ContactModel> ContactStage<B, C> {
         tool: &ToolState,
         time_s: Real,
     ) -> Result<ContactUpdate, ContactStageError> {
+        let Some(b) = &self.budget else {
+            return self.update_at_threshold(tool, time_s);
+        };
+        self.params.error_threshold = b.threshold();
         let started = std::time::Instant::now();
-        if let Some(b) = &self.budget {
-            self.params.error_threshold = b.threshold();
-        }
         let result = self.update_at_threshold(tool, time_s);
-        if let Some(b) = &mut self.budget {
-            b.observe(started.elapsed().as_secs_f64());
+        // Only updates that found contacts say what a threshold costs: free space (the broad
+        // phase alone) and failures take nanoseconds and would pull the threshold to the
+        // finest just before the next contact.
+        if let (Ok(u), Some(b)) = (&result, &mut self.budget) {
+            if u.raw_contact_count > 0 {
+                b.observe(started.elapsed().as_secs_f64());
+            }
         }
         result
     }

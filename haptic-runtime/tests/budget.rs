@@ -3,10 +3,106 @@
 
 mod common;
 
+use std::sync::{Arc, Mutex};
+
 use common::{BoxOnFloor, HALF_M, box_body, pressing_hand};
-use haptic_core::{Pose, Vec3};
+use haptic_core::{CollisionBackend, ContactSet, Pose, QueryParams, QueryStats, Real, Vec3};
 use haptic_dynamics::{LinearizedBackwardEuler, PenaltyModel, PenaltyParams};
-use haptic_runtime::{ContactLatency, PipelineBuilder, PipelineConfig, QueryBudget, Summary};
+use haptic_runtime::recording::{FORMAT, RecordingHeader, VERSION};
+use haptic_runtime::{
+    ContactLatency, PipelineBuilder, PipelineConfig, QueryBudget, RunRecorder, RunRecording,
+    Summary,
+};
+
+/// The box on the floor, noting the threshold of every query and whether it found contacts.
+struct Probe {
+    inner: BoxOnFloor,
+    seen: Arc<Mutex<Vec<(Real, bool)>>>,
+}
+
+impl CollisionBackend for Probe {
+    type Error = <BoxOnFloor as CollisionBackend>::Error;
+    fn name(&self) -> &str {
+        "probe"
+    }
+    fn tool_bounding_radius_m(&self) -> Real {
+        self.inner.tool_bounding_radius_m()
+    }
+    fn query(
+        &mut self,
+        pose: &Pose,
+        params: &QueryParams,
+        out: &mut ContactSet,
+    ) -> Result<QueryStats, Self::Error> {
+        let r = self.inner.query(pose, params, out);
+        self.seen
+            .lock()
+            .unwrap()
+            .push((params.error_threshold, !out.is_empty()));
+        r
+    }
+}
+
+/// The box starts 1 cm above the floor (free space), then the hand presses it down.
+#[test]
+fn free_space_does_not_move_the_threshold_and_records_say_which_was_used() {
+    let seen = Arc::new(Mutex::new(Vec::new()));
+    let mut p = PipelineBuilder::new(
+        box_body(),
+        Pose::from_position(Vec3::new(0.0, 0.0, HALF_M + 0.01)),
+    )
+    .integrator(LinearizedBackwardEuler)
+    .backend(Probe {
+        inner: BoxOnFloor::new(HALF_M),
+        seen: seen.clone(),
+    })
+    .contact_model(PenaltyModel::new(PenaltyParams::default()).unwrap())
+    .device(pressing_hand())
+    .config(PipelineConfig {
+        realtime_scheduling: false,
+        // No update fits a nanosecond: each one with contacts coarsens the next, ×4.
+        query_budget: Some(QueryBudget::new(1e-9).unwrap()),
+        ..PipelineConfig::default()
+    })
+    .build()
+    .unwrap();
+    let header = RecordingHeader {
+        format: FORMAT.to_owned(),
+        version: VERSION,
+        name: "probe".to_owned(),
+        settings: Vec::new(),
+        meshes: Vec::new(),
+        haptic_rate_hz: 1000.0,
+        frame_rate_hz: 100.0,
+        contact_cap: 16,
+    };
+    let mut rec = RunRecorder::new(Vec::new(), &header, 0.0).unwrap();
+    let summary = p
+        .run_virtual_observed(0.5, ContactLatency::FixedRate { rate_hz: 500.0 }, &mut rec)
+        .unwrap();
+    let r = RunRecording::from_reader(&rec.finish(&summary).unwrap()[..]).unwrap();
+    let seen = seen.lock().unwrap().clone();
+    let first_contact = seen
+        .iter()
+        .position(|s| s.1)
+        .expect("the box never touched");
+    assert!(
+        first_contact > 5,
+        "the box touched at once: no free space to test"
+    );
+    // Free space: the threshold stays where it started (the finest), not pulled anywhere.
+    assert!(
+        seen[..=first_contact].iter().all(|s| s.0 == 0.001),
+        "{seen:?}"
+    );
+    // Then each update with contacts coarsens the next, ×4, up to the ceiling.
+    assert_eq!(seen[first_contact + 1].0, 0.004);
+    assert_eq!(seen.last().unwrap().0, 0.1);
+    // Every record carries the threshold its query used, in order.
+    let recorded: Vec<Real> = r.updates.iter().map(|u| u.threshold).collect();
+    let queried: Vec<Real> = seen.iter().map(|s| s.0).collect();
+    assert_eq!(recorded, queried);
+}
 
 fn run_with(budget_s: f64) -> Summary {
     let mut p = PipelineBuilder::new(

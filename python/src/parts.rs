@@ -64,7 +64,7 @@ impl PyScene {
         contact_stiffness_n_per_m = 2000.0, contact_damping_ns_per_m = None, delta_m = 1e-3,
         clusters = 5, error_threshold = 0.0, linearized = true, haptic_rate_hz = 1000.0,
         contact_rate_hz = None, waypoints = None, max_force_n = 10.0, max_torque_nm = 1.0,
-        workspace_half_m = 0.5, query_budget_s = None))]
+        workspace_half_m = 0.5, time_budget_s = None))]
     fn from_parts(
         py: Python<'_>,
         tool: PyRef<'_, PyMesh>,
@@ -88,7 +88,7 @@ impl PyScene {
         max_force_n: f64,
         max_torque_nm: f64,
         workspace_half_m: f64,
-        query_budget_s: Option<f64>,
+        time_budget_s: Option<f64>,
     ) -> PyResult<Self> {
         let tool_pose = match tool_pose {
             Some(p) => convert::pose(p, "tool_pose")?,
@@ -153,7 +153,7 @@ impl PyScene {
                 clusters,
                 error_threshold,
                 linearized,
-                time_budget_s: query_budget_s,
+                time_budget_s,
             },
             rates: RateSpec {
                 haptic_hz: haptic_rate_hz,
@@ -290,6 +290,11 @@ impl AnyBackend {
             "lod" => LodBackend::new(&parts.tool_mesh, &parts.obstacles)
                 .map(AnyBackend::Lod)
                 .map_err(|e| crate::errors::collision(&e)),
+            // A time budget picks LOD thresholds: parry has none to pick.
+            "parry" if parts.config.query_budget.is_some() => Err(input(
+                "backend",
+                "the scene sets a time budget, which picks the LOD back-end's error threshold; parry has none",
+            )),
             "parry" => ParryBackend::new(&parts.tool_mesh, &parts.obstacles)
                 .map(AnyBackend::Parry)
                 .map_err(|e| crate::errors::collision(&e)),

@@ -355,3 +355,28 @@ def test_bad_run_arguments(spoon_cup):
     with pytest.raises(haptic.InputError) as e:
         haptic.run_realtime(spoon_cup, 0.1, integrator="verlet")
     assert e.value.field == "integrator"
+
+
+def test_a_time_budget_picks_the_threshold(make_box):
+    v, t = make_box([-0.01] * 3, [0.01] * 3)
+    slab_v, slab_t = make_box([-0.05, -0.05, -0.01], [0.05, 0.05, 0.0])
+    times = np.array([0.0, 0.3])
+    poses = np.array([[0, 0, 0.011, 1, 0, 0, 0], [0, 0, 0.0095, 1, 0, 0, 0]], dtype=np.float64)
+    common = dict(tool=haptic.Mesh(v, t), mass_kg=0.1, tool_pose=poses[0],
+                  obstacles=[(haptic.Mesh(slab_v, slab_t), [0, 0, 0, 1, 0, 0, 0])],
+                  waypoints=(times, poses), error_threshold=0.05)
+    # A nanosecond fits no update: the threshold climbs to the budget's ceiling (10 %), not the
+    # scene's 5 %.
+    scene = haptic.Scene.from_parts(time_budget_s=1e-9, **common)
+    run = haptic.run_virtual(scene, 0.5)
+    assert run.summary["raw_contact_count_max"] > 0
+    assert run.summary["error_threshold_max"] == pytest.approx(0.1)
+    # Without a budget, the scene's threshold.
+    fixed = haptic.run_virtual(haptic.Scene.from_parts(**common), 0.5)
+    assert fixed.summary["error_threshold_median"] == pytest.approx(0.05)
+    with pytest.raises(haptic.InputError) as e:
+        haptic.run_virtual(scene, 0.1, backend="parry")
+    assert e.value.field == "backend"
+    with pytest.raises(haptic.SceneError) as e:
+        haptic.Scene.from_parts(time_budget_s=-1.0, **common)
+    assert e.value.field == "contact.time_budget_s"

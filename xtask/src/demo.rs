@@ -84,6 +84,11 @@ pub fn run(args: &DemoArgs) -> anyhow::Result<()> {
         parts.config.query_budget =
             Some(haptic_runtime::QueryBudget::new(ms * 1e-3).context("--query-budget-ms")?);
     }
+    if parts.config.query_budget.is_some() && args.backend == "parry" {
+        bail!(
+            "a time budget picks the LOD back-end's error threshold; parry has none (use --backend lod)"
+        );
+    }
     println!(
         "scene `{}`: tool {} triangles, {:.1} g; {} obstacle(s), {} triangles",
         scene.name,
@@ -114,7 +119,13 @@ pub fn run(args: &DemoArgs) -> anyhow::Result<()> {
                 ),
                 (
                     "error threshold".to_owned(),
-                    format!("{}", parts.config.query.error_threshold),
+                    match &parts.config.query_budget {
+                        Some(b) => format!(
+                            "picked per update for a {} ms budget (each update records its own)",
+                            b.budget_s * 1e3
+                        ),
+                        None => format!("{}", parts.config.query.error_threshold),
+                    },
                 ),
             ],
             parts.config.haptic_rate_hz,

@@ -36,8 +36,72 @@ struct ContactStats {
     panicked: Option<String>,
     first_update_s: Option<Real>,
     last_update_s: Real,
-    /// The error threshold of each update with contacts (a budget picks them).
-    thresholds: Vec<Real>,
+    /// The error thresholds of the updates with contacts (a budget picks them).
+    thresholds: ThresholdStats,
+}
+
+/// Bins of [`ThresholdStats`]: 40 a decade from 1e-5 to 10 (each about 6 % wide).
+const THRESHOLD_BINS: usize = 240;
+
+/// Error thresholds in fixed logarithmic bins: a run of any length takes the same memory, and
+/// recording one allocates nothing. Quantiles are bin centres (within 3 %), brought within the
+/// smallest and largest values seen (so a run at one threshold reports it exactly).
+#[derive(Debug, Clone)]
+struct ThresholdStats {
+    zero: u64,
+    bins: [u64; THRESHOLD_BINS],
+    count: u64,
+    min: Real,
+    max: Real,
+}
+
+impl Default for ThresholdStats {
+    fn default() -> Self {
+        Self {
+            zero: 0,
+            bins: [0; THRESHOLD_BINS],
+            count: 0,
+            min: Real::INFINITY,
+            max: 0.0,
+        }
+    }
+}
+
+impl ThresholdStats {
+    fn record(&mut self, t: Real) {
+        if !(t.is_finite() && t >= 0.0) {
+            return;
+        }
+        self.count += 1;
+        self.min = self.min.min(t);
+        self.max = self.max.max(t);
+        if t == 0.0 {
+            self.zero += 1;
+        } else {
+            let i = ((t.log10() + 5.0) * 40.0).floor().max(0.0) as usize;
+            self.bins[i.min(THRESHOLD_BINS - 1)] += 1;
+        }
+    }
+
+    /// The `f`-quantile (0 when nothing was recorded).
+    fn quantile(&self, f: Real) -> Real {
+        if self.count == 0 {
+            return 0.0;
+        }
+        let rank = ((self.count - 1) as Real * f.clamp(0.0, 1.0)).round() as u64;
+        if rank < self.zero {
+            return 0.0;
+        }
+        let mut seen = self.zero;
+        for (i, n) in self.bins.iter().enumerate() {
+            seen += n;
+            if rank < seen {
+                let centre = 10f64.powf((i as Real + 0.5) / 40.0 - 5.0);
+                return centre.clamp(self.min, self.max);
+            }
+        }
+        self.max
+    }
 }
 
 impl ContactStats {
@@ -52,18 +116,14 @@ impl ContactStats {
         self.max_penetration_m = self.max_penetration_m.max(u.max_penetration_m);
         self.first_update_s.get_or_insert(available_s);
         self.last_update_s = available_s;
-        if !u.broad_phase_only {
-            self.thresholds.push(u.error_threshold);
+        if u.raw_contact_count > 0 {
+            self.thresholds.record(u.error_threshold);
         }
     }
 
     /// The `f`-quantile of the thresholds of the updates with contacts (0 without any).
     fn threshold_quantile(&self, f: Real) -> Real {
-        let mut t = self.thresholds.clone();
-        t.sort_by(Real::total_cmp);
-        t.get(((t.len().max(1) - 1) as Real * f).round() as usize)
-            .copied()
-            .unwrap_or(0.0)
+        self.thresholds.quantile(f)
     }
 
     fn rate_hz(&self, duration_s: Real) -> Real {
@@ -219,5 +279,38 @@ fn finish(
                 summary: Box::new(summary),
             })
         }
+    }
+}
+
+#[cfg(test)]
+mod threshold_stats_tests {
+    use super::*;
+
+    #[test]
+    fn quantiles_of_binned_thresholds() {
+        let mut s = ThresholdStats::default();
+        assert_eq!(s.quantile(0.5), 0.0);
+        for _ in 0..10 {
+            s.record(0.025);
+        }
+        // One value: reported exactly.
+        assert_eq!(s.quantile(0.5), 0.025);
+        for t in [
+            0.0, 0.0, 0.001, 0.1, 0.1, 0.1, 0.1, 0.1, 0.1, 0.1, 0.1, 0.1, 0.1, 0.1,
+        ] {
+            s.record(t);
+        }
+        // 24 values: 2 zeros, 0.001, ten at 2.5 %, eleven at 10 %.
+        assert_eq!(s.quantile(0.0), 0.0);
+        assert!(
+            (s.quantile(0.5) / 0.025 - 1.0).abs() < 0.03,
+            "{}",
+            s.quantile(0.5)
+        );
+        assert_eq!(s.quantile(1.0), 0.1);
+        // Not a threshold: ignored.
+        s.record(Real::NAN);
+        s.record(-1.0);
+        assert_eq!(s.count, 24);
     }
 }

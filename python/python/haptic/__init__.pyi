@@ -484,6 +484,7 @@ class Scene:
         max_force_n: float = 10.0,
         max_torque_nm: float = 1.0,
         workspace_half_m: float = 0.5,
+        time_budget_s: float | None = None,
     ) -> Scene:
         """A scene from meshes and parameters: the fields of a scene file, with the same
         defaults, all by keyword.
@@ -510,6 +511,10 @@ class Scene:
                 jerk between waypoints); ``None`` holds the handle where the tool starts.
             max_force_n, max_torque_nm: the device's limits (wrenches beyond are clamped).
             workspace_half_m: half the side of the device's cubic workspace.
+            time_budget_s: a time budget per contact update (s): the LOD back-end's error
+                threshold is then picked update by update to fit it and ``error_threshold`` is
+                not used (errors name ``"contact.time_budget_s"``); with a budget, virtual-time
+                runs depend on the machine's speed, and the parry back-end is refused.
 
         Raises:
             InputError: a bad pose or array.
