@@ -9,8 +9,11 @@
 //! (default 5), so the total translational stiffness is bounded by `K · k_c` whatever the
 //! triangle count.
 //!
-//! - Contacts are weighted by depth, `w_i = d_i + δ` (floored at `δ · 1e-3`, so pre-contacts at
-//!   exactly `−δ` keep a small positive weight).
+//! - Contacts are weighted by depth and by the area they stand for, `w_i = a_i (d_i + δ)` (the
+//!   depth term floored at `δ · 1e-3`, so pre-contacts at exactly `−δ` keep a small positive
+//!   weight). `a_i` is the contact's `area_m2` when every contact of the call has one, and 1
+//!   otherwise (a back-end that does not measure areas): with areas, a flat face pulls a
+//!   centroid as hard however finely it is tessellated.
 //! - Lloyd's iterations minimise `E = Σ w_i |p_i − c_k(i)|²` (eq. 28) with weighted centroids
 //!   (eq. 29), until the assignment stops changing or the iteration cap is hit. `E` never
 //!   increases from one iteration to the next.
@@ -241,7 +244,7 @@ pub struct Clusterer {
     acc: Vec<Accumulator>,
     /// Cost after each assignment of the last call.
     costs: Vec<Real>,
-    /// Each representative's weight `Σ w_i` (m) of the last call, in the order written.
+    /// Each representative's weight `Σ w_i` of the last call, in the order written.
     representative_weights: Vec<Real>,
 }
 
@@ -310,9 +313,9 @@ impl Clusterer {
         self.previous.clear();
     }
 
-    /// The weight of each representative written by the last call (m), in its order: the sum of
-    /// its contacts' weights `w_i = d_i + δ` (eq. 28's weights). Empty after an empty input or
-    /// an error.
+    /// The weight of each representative written by the last call, in its order: the sum of its
+    /// contacts' weights `w_i = a_i (d_i + δ)` (eq. 28's weights; m³ with areas, m without, see
+    /// the crate docs). Empty after an empty input or an error.
     pub fn representative_weights(&self) -> &[Real] {
         &self.representative_weights
     }
@@ -372,6 +375,7 @@ impl Clusterer {
         self.points.z.resize(n, 0.0);
         self.weights.resize(n, 0.0);
         // Validate and copy in one pass over the contacts.
+        let mut with_areas = true;
         for (i, c) in contacts.iter().enumerate() {
             if !screen(c) {
                 validate_one(i, c)?;
@@ -380,6 +384,12 @@ impl Clusterer {
             self.points.y[i] = c.p_a.y;
             self.points.z[i] = c.p_a.z;
             self.weights[i] = weight(c.depth_m, delta_m);
+            with_areas &= c.area_m2 > 0.0;
+        }
+        if with_areas {
+            for (w, c) in self.weights.iter_mut().zip(contacts) {
+                *w *= c.area_m2;
+            }
         }
         self.assign.clear();
         if n == 0 {
@@ -709,6 +719,7 @@ impl Clusterer {
             acc.r_a += c.r_a * w;
             acc.n += c.n * w;
             acc.d += c.depth_m * w;
+            acc.area_m2 += c.area_m2;
             if acc.deepest == usize::MAX || c.depth_m > contacts[acc.deepest].depth_m {
                 acc.deepest = i;
             }
@@ -731,6 +742,7 @@ impl Clusterer {
                 depth_m: d,
                 feature_a: deepest.feature_a,
                 feature_b: deepest.feature_b,
+                area_m2: acc.area_m2,
             });
         }
         self.acc.iter().map(|a| a.cost).sum()
@@ -742,8 +754,8 @@ impl Clusterer {
 /// valid; `false` calls for [`validate_one`], which gives the precise error (or accepts).
 #[inline]
 fn screen(c: &Contact) -> bool {
-    let sum = c.p_a.sum() + c.r_a.sum() + c.p_b.sum() + c.n.sum() + c.depth_m;
-    sum.is_finite() && (c.n.norm_squared() - 1.0).abs() <= 1.9e-6
+    let sum = c.p_a.sum() + c.r_a.sum() + c.p_b.sum() + c.n.sum() + c.depth_m + c.area_m2;
+    sum.is_finite() && c.area_m2 >= 0.0 && (c.n.norm_squared() - 1.0).abs() <= 1.9e-6
 }
 
 /// [`Contact::validate`], with the error mapped to the clustering's and the contact's index.
@@ -767,6 +779,7 @@ struct Accumulator {
     r_a: Vec3,
     n: Vec3,
     d: Real,
+    area_m2: Real,
     deepest: usize,
 }
 
@@ -779,6 +792,7 @@ impl Default for Accumulator {
             r_a: Vec3::zeros(),
             n: Vec3::zeros(),
             d: 0.0,
+            area_m2: 0.0,
             deepest: usize::MAX,
         }
     }

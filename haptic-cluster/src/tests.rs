@@ -365,3 +365,64 @@ fn warm_start_from_given_representatives_replays_that_history() {
     told.warm_start_from(&[]);
     assert!(!told.cluster(&b, DELTA_M, &mut reps).unwrap().warm);
 }
+
+/// The contacts of a 2 cm square face at tilted depth, one per cell of an `n × n` grid whose
+/// columns are split unevenly (a third of them a quarter as wide), each with its cell's area.
+fn tilted_face(n: usize, with_areas: bool) -> Vec<Contact> {
+    let side = 0.02;
+    // Column edges: the first third of the columns four times narrower than the rest.
+    let narrow = n / 3;
+    let unit = side / (narrow as Real * 0.25 + (n - narrow) as Real);
+    let mut edges = vec![0.0];
+    for i in 0..n {
+        let w = if i < narrow { 0.25 * unit } else { unit };
+        edges.push(edges[i] + w);
+    }
+    let mut out = Vec::new();
+    for i in 0..n {
+        for j in 0..n {
+            let x = 0.5 * (edges[i] + edges[i + 1]);
+            let y = (j as Real + 0.5) * side / n as Real;
+            let area = (edges[i + 1] - edges[i]) * side / n as Real;
+            let c = contact(Vec3::new(x, y, 0.0), -Vec3::z(), 2e-4 + 0.02 * x);
+            out.push(if with_areas { c.with_area(area) } else { c });
+        }
+    }
+    out
+}
+
+#[test]
+fn area_weights_make_the_representative_independent_of_the_tessellation() {
+    // One cluster: its representative is the weighted mean. With areas it is the same for a
+    // coarse and a finer, uneven grid of the same face (to rounding); without, the narrow
+    // columns' extra contacts pull it towards them.
+    let one = ClusterParams {
+        max_clusters: 1,
+        ..Default::default()
+    };
+    let rep = |contacts: &[Contact]| {
+        let mut c = Clusterer::new(one).unwrap();
+        let mut reps = ContactSet::new();
+        c.cluster(contacts, DELTA_M, &mut reps).unwrap();
+        (reps.as_slice()[0], c.representative_weights()[0])
+    };
+    let (coarse, w_coarse) = rep(&tilted_face(6, true));
+    let (fine, w_fine) = rep(&tilted_face(24, true));
+    assert!(
+        (coarse.p_a - fine.p_a).norm() < 2e-4,
+        "{:?} {:?}",
+        coarse.p_a,
+        fine.p_a
+    );
+    assert!((coarse.depth_m - fine.depth_m).abs() < 1e-5);
+    assert!((coarse.area_m2 - 4e-4).abs() < 1e-12 && (fine.area_m2 - 4e-4).abs() < 1e-12);
+    // Weight in m³: area times depth plus δ.
+    assert!((w_coarse / w_fine - 1.0).abs() < 0.02);
+    let (unweighted, _) = rep(&tilted_face(24, false));
+    assert!((unweighted.p_a - fine.p_a).norm() > 2e-3);
+    // One contact without an area makes the whole call unweighted.
+    let mut mixed = tilted_face(24, true);
+    mixed[0].area_m2 = 0.0;
+    let (m, _) = rep(&mixed);
+    assert!((m.p_a - unweighted.p_a).norm() < 1e-12);
+}

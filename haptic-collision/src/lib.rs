@@ -12,16 +12,21 @@
 //! - `ParryBackend` (cargo feature `parry`, on by default): parry3d-f64's triangle-mesh contact
 //!   manifolds, as a second implementation and a reference; nothing of parry is compiled
 //!   without the feature;
-//! - [`reference::ReferenceBackend`]: all triangle pairs, for tests on small meshes.
+//! - [`reference::ReferenceBackend`]: all triangle pairs, for tests on small meshes;
+//! - [`compact::Compactor`]: raw contacts merged into a few that keep what the clustering and
+//!   the force read; `LodBackend` reports compact contacts by default.
 //!
 //! It does not own clustering (`haptic-cluster`), contact forces (`haptic-dynamics`) or the
 //! pipeline (`haptic-runtime`).
 //!
 //! Contact convention (docs/formulation.md): `p_a` on the tool, `r_a` the same point in the
 //! tool's body frame, `p_b` on the obstacle, `n` unit and out of the tool, `depth_m` positive
-//! inside and down to `−δ` when apart. How each back-end measures depth inside an overlap is in
-//! its module docs.
+//! inside and down to `−δ` when apart, `area_m2` the tool surface the contact stands for (split
+//! among the contacts of one tool triangle, see `area.rs`). How each back-end measures depth
+//! inside an overlap is in its module docs.
 
+mod area;
+pub mod compact;
 pub mod geometry;
 pub mod lod;
 pub mod mesh;
@@ -29,7 +34,7 @@ pub mod mesh;
 pub mod parry;
 pub mod reference;
 
-pub use lod::LodBackend;
+pub use lod::{DEFAULT_MAX_CONTACTS, LodBackend};
 pub use mesh::{
     DegeneratePolicy, LoadOptions, LoadReport, MassProperties, MeshError, MeshFormat, TriMesh,
 };

@@ -25,6 +25,7 @@
 //! for the ring of contacts of the jaws in occlusion at δ = 0.5 mm, 190 ms at δ = 1 mm; building
 //! both meshes takes about 0.1 s.
 
+use crate::area::{AreaSplit, triangle_area};
 use std::time::Instant;
 
 use parry3d_f64::math::{Pose as PPose, Vector as PVec};
@@ -96,6 +97,9 @@ pub struct ParryBackend {
     tool_center: Vec3,
     tool_sphere_radius: Real,
     tool_radius_about_origin: Real,
+    /// Area of each tool triangle (m²), for the contacts' `area_m2`.
+    tool_areas_m2: Vec<Real>,
+    split: AreaSplit,
     obstacles: Vec<Obstacle>,
     build_s: Real,
 }
@@ -200,7 +204,12 @@ impl ParryBackend {
                 })
             })
             .collect::<Result<Vec<_>, ParryError>>()?;
+        let tool_areas_m2: Vec<Real> = (0..tool.triangles().len())
+            .map(|t| triangle_area(&tool.triangle(t)))
+            .collect();
         Ok(Self {
+            split: AreaSplit::new(tool_areas_m2.len()),
+            tool_areas_m2,
             tool: tool_p,
             tool_center,
             tool_sphere_radius,
@@ -228,7 +237,8 @@ impl CollisionBackend for ParryBackend {
     }
 
     /// Contacts of the tool at `tool_pose` (the error threshold is ignored: parry has no levels
-    /// of detail). `feature_a`/`feature_b` are the tool and obstacle triangle indices.
+    /// of detail). `feature_a`/`feature_b` are the tool and obstacle triangle indices; each
+    /// contact stands for its share of its tool triangle's area (`area_m2`).
     fn query(
         &mut self,
         tool_pose: &Pose,
@@ -281,12 +291,20 @@ impl CollisionBackend for ParryBackend {
                     let r_a = from_p(&pt.local_p1);
                     let p_a = tool_pose.transform_point(&r_a);
                     let p_b = obs.pose.transform_point(&from_p(&pt.local_p2));
+                    let area = self
+                        .tool_areas_m2
+                        .get(m.subshape1 as usize)
+                        .copied()
+                        .unwrap_or(0.0);
                     let c = Contact::new(p_a, r_a, p_b, n, -pt.dist)?
-                        .with_features(m.subshape1, m.subshape2);
+                        .with_features(m.subshape1, m.subshape2)
+                        .with_area(area);
                     out.push(c);
                 }
             }
         }
+        // Each tool triangle's area shared among its contacts, as `LodBackend` does.
+        self.split.split(out.as_mut_slice(), delta);
         Ok(stats)
     }
 }

@@ -1,10 +1,12 @@
 //! A brute-force reference back-end: every tool triangle against every obstacle triangle, with
 //! the same exact primitive ([`crate::geometry::triangle_pair`]) and the same contact output as
-//! [`crate::lod::LodBackend`] at error threshold 0. Quadratic in the triangle counts: for tests
+//! [`crate::lod::LodBackend`] at error threshold 0 with every contact written
+//! (`with_max_contacts(None)`), areas included. Quadratic in the triangle counts: for tests
 //! on small meshes only.
 
 use haptic_core::{CollisionBackend, ContactSet, Pose, QueryParams, QueryStats, Real, Vec3};
 
+use crate::area::{AreaSplit, triangle_area};
 use crate::geometry::{triangle_normal, triangle_pair};
 use crate::lod::LodError;
 use crate::lod::query::Frames;
@@ -15,6 +17,7 @@ use crate::mesh::TriMesh;
 struct Soup {
     tris: Vec<[Vec3; 3]>,
     normals: Vec<Vec3>,
+    areas_m2: Vec<Real>,
 }
 
 impl Soup {
@@ -26,7 +29,12 @@ impl Soup {
             .iter()
             .map(|t| triangle_normal(t).unwrap_or_else(Vec3::z))
             .collect();
-        Self { tris, normals }
+        let areas_m2 = tris.iter().map(triangle_area).collect();
+        Self {
+            tris,
+            normals,
+            areas_m2,
+        }
     }
 }
 
@@ -96,11 +104,13 @@ impl CollisionBackend for ReferenceBackend {
                     stats.primitive_pairs_tested += 1;
                     let pc = triangle_pair(&a, &na, b, nb);
                     if pc.depth >= -params.delta_m {
-                        frames.emit(&pc, ta as u32, tb as u32, out)?;
+                        let area = self.tool.areas_m2[ta];
+                        frames.emit(&pc, ta as u32, tb as u32, area, out)?;
                     }
                 }
             }
         }
+        AreaSplit::new(self.tool.tris.len()).split(out.as_mut_slice(), params.delta_m);
         Ok(stats)
     }
 }

@@ -53,6 +53,9 @@ pub struct QueryStats {
     pub node_pairs_tested: u64,
     /// Primitive (triangle or convex-piece) pairs tested exactly.
     pub primitive_pairs_tested: u64,
+    /// Contacts found before the back-end compacted them into the ones it wrote; 0 when it
+    /// does not compact (then the contacts written are all it found).
+    pub raw_contacts: u64,
 }
 
 /// Tool geometry against static obstacles (Section VI-A).
@@ -62,7 +65,10 @@ pub struct QueryStats {
 /// geometry in the world frame. A query places the tool at `tool_pose` and writes into `out`
 /// (after clearing it) every contact within `params.delta_m`, as [`crate::Contact`] defines it:
 /// `p_a` on the tool and `r_a` the same point in the body frame, `p_b` on the obstacle, `n` unit
-/// and pointing out of the tool, `depth_m` positive inside and down to `−δ` outside.
+/// and pointing out of the tool, `depth_m` positive inside and down to `−δ` outside. A back-end
+/// may instead write fewer contacts that stand for those (merged region by region, each with
+/// the tool area `area_m2` it stands for, as `haptic-collision`'s `LodBackend` does), and then
+/// says how many it found in [`QueryStats::raw_contacts`].
 ///
 /// Contract for implementers:
 /// - Reuse `out`'s allocation; allocate as little as possible per query.

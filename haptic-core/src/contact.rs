@@ -19,6 +19,9 @@ pub const NO_FEATURE: u32 = u32::MAX;
 ///   are apart but closer than the distance tolerance `δ`.
 /// - `feature_a`, `feature_b`: the triangle (or hierarchy node) on each side that produced the
 ///   contact, or [`NO_FEATURE`].
+/// - `area_m2`: the area of the tool's surface this contact stands for (m²), so that a flat
+///   face weighs the same however finely it is tessellated; 0 when the back-end does not
+///   measure it (see [`Contact::with_area`]). Clustering weighs contacts by it.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Contact {
     /// Point on the tool, world frame, m.
@@ -35,6 +38,8 @@ pub struct Contact {
     pub feature_a: u32,
     /// Obstacle feature index, or [`NO_FEATURE`].
     pub feature_b: u32,
+    /// Area of the tool's surface the contact stands for (m²), 0 when not measured.
+    pub area_m2: Real,
 }
 
 impl Contact {
@@ -52,6 +57,7 @@ impl Contact {
             depth_m,
             feature_a: NO_FEATURE,
             feature_b: NO_FEATURE,
+            area_m2: 0.0,
         };
         c.validate()?;
         Ok(c)
@@ -64,10 +70,18 @@ impl Contact {
         self
     }
 
-    /// Checks finiteness and the unit normal.
+    /// The same contact standing for `area_m2` of the tool's surface (m²). The area is not
+    /// checked here; [`Contact::validate`] refuses a negative or non-finite one.
+    pub fn with_area(mut self, area_m2: Real) -> Self {
+        self.area_m2 = area_m2;
+        self
+    }
+
+    /// Checks finiteness, the unit normal and a non-negative area.
     ///
     /// # Errors
-    /// As [`Contact::new`].
+    /// As [`Contact::new`], and [`CoreError::NonFinite`] (`"contact area"`) for an area that is
+    /// negative, NaN or infinite.
     pub fn validate(&self) -> Result<(), CoreError> {
         let finite = |v: &Vec3| v.iter().all(|c| c.is_finite());
         if !finite(&self.p_a) {
@@ -93,6 +107,11 @@ impl Contact {
         if !self.depth_m.is_finite() {
             return Err(CoreError::NonFinite {
                 what: "contact depth",
+            });
+        }
+        if !(self.area_m2.is_finite() && self.area_m2 >= 0.0) {
+            return Err(CoreError::NonFinite {
+                what: "contact area",
             });
         }
         let norm = self.n.norm();
@@ -237,6 +256,18 @@ mod tests {
             Contact::new(z, z, z, z, 0.0),
             Err(CoreError::BadNormal { .. })
         ));
+        for area in [-1e-9, Real::NAN, Real::INFINITY] {
+            let c = Contact::new(z, z, z, Vec3::z(), 0.0)
+                .unwrap()
+                .with_area(area);
+            assert!(matches!(
+                c.validate(),
+                Err(CoreError::NonFinite {
+                    what: "contact area"
+                })
+            ));
+        }
+        assert!(ok().with_area(2e-6).validate().is_ok());
         assert!(matches!(
             Contact::new(z, z, z, Vec3::new(0.0, 0.0, 2.0), 0.0),
             Err(CoreError::BadNormal { .. })

@@ -82,7 +82,7 @@
 //!         }
 //!         let p_b = Vec3::new(p_a.x, p_a.y, 0.0);
 //!         out.push(Contact::new(p_a, Vec3::zeros(), p_b, -Vec3::z(), depth_m)?);
-//!         Ok(QueryStats { broad_phase_hit: true, node_pairs_tested: 1, primitive_pairs_tested: 1 })
+//!         Ok(QueryStats { broad_phase_hit: true, node_pairs_tested: 1, primitive_pairs_tested: 1, raw_contacts: 0 })
 //!     }
 //! }
 //!

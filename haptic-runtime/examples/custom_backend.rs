@@ -57,6 +57,7 @@ impl CollisionBackend for SphereOnFloor {
             broad_phase_hit: true,
             node_pairs_tested: 1,
             primitive_pairs_tested: 1,
+            ..QueryStats::default()
         })
     }
 }

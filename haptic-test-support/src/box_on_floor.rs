@@ -96,6 +96,7 @@ impl CollisionBackend for BoxOnFloor {
             broad_phase_hit: true,
             node_pairs_tested: 1,
             primitive_pairs_tested: 8,
+            ..QueryStats::default()
         })
     }
 }

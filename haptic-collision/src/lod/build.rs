@@ -50,6 +50,26 @@ pub(crate) struct Node {
     pub triangles: u32,
 }
 
+/// The surface area of the triangles below each node: a leaf's piece is its triangle, and the
+/// children of node `i` (`i + 1` and `right`) come after it, so one pass from the end suffices.
+fn node_areas(nodes: &[Node], piece: &[Vec3]) -> Vec<Real> {
+    let mut area = vec![0.0; nodes.len()];
+    for i in (0..nodes.len()).rev() {
+        let n = &nodes[i];
+        area[i] = if n.is_leaf() {
+            let s = n.piece_start as usize;
+            match piece.get(s..s + n.piece_len as usize) {
+                Some([a, b, c]) => 0.5 * (b - a).cross(&(c - a)).norm(),
+                _ => 0.0,
+            }
+        } else {
+            let (l, r) = (i + 1, n.right as usize);
+            area.get(l).copied().unwrap_or(0.0) + area.get(r).copied().unwrap_or(0.0)
+        };
+    }
+    area
+}
+
 impl Node {
     /// Whether the node is a leaf (one triangle).
     #[inline]
@@ -64,6 +84,9 @@ impl Node {
 pub struct Hierarchy {
     pub(crate) nodes: Vec<Node>,
     pub(crate) piece: Vec<Vec3>,
+    /// Surface area (m²) of the triangles below each node, by node index (derived from the
+    /// leaves' triangles, so not saved with the hierarchy).
+    pub(crate) area_m2: Vec<Real>,
     radius_about_origin_m: Real,
     triangle_count: usize,
     height: usize,
@@ -264,9 +287,11 @@ impl Hierarchy {
             .iter()
             .map(|v| v.norm())
             .fold(0.0, Real::max);
+        let area_m2 = node_areas(&nodes, &piece);
         Self {
             nodes,
             piece,
+            area_m2,
             radius_about_origin_m,
             triangle_count: n,
             height,
@@ -294,9 +319,11 @@ impl Hierarchy {
         height: usize,
         build_s: Real,
     ) -> Self {
+        let area_m2 = node_areas(&nodes, &piece);
         Self {
             nodes,
             piece,
+            area_m2,
             radius_about_origin_m,
             triangle_count,
             height,
@@ -323,6 +350,13 @@ impl Hierarchy {
     pub fn memory_bytes(&self) -> usize {
         self.nodes.capacity() * std::mem::size_of::<Node>()
             + self.piece.capacity() * std::mem::size_of::<Vec3>()
+            + self.area_m2.capacity() * std::mem::size_of::<Real>()
+    }
+
+    /// Surface area (m²) of the mesh's triangles below node `i`.
+    #[inline]
+    pub(crate) fn area_of(&self, i: u32) -> Real {
+        self.area_m2[i as usize]
     }
 
     /// The piece of node `i` (vertices CCW about the node normal).

@@ -32,6 +32,14 @@
 //! `feature_a`/`feature_b` are the source triangle indices for exact (triangle-pair) contacts and
 //! [`NO_FEATURE`](haptic_core::NO_FEATURE) for contacts between coarse pieces.
 //!
+//! Compact contacts: the contacts found are then given their areas (each triangle-pair contact
+//! a share of its tool triangle, each coarse sample a share of its tool node's surface; see
+//! `area.rs`) and, when there are more than [`LodBackend::max_contacts`] (default
+//! [`DEFAULT_MAX_CONTACTS`]), merged region by region into that many by
+//! [`crate::compact::Compactor`], which keeps the sums the clustering reads and the deepest
+//! contact. [`LodBackend::with_max_contacts`]`(None)` writes every contact found: the all-pairs
+//! answer at threshold 0, the reference of the error metric.
+//!
 //! Hierarchies can be saved and read back ([`LodBackend::with_cache`], [`Hierarchy::write_to`],
 //! [`Hierarchy::read_from`]), keyed by the mesh's content and the build's version
 //! ([`hierarchy_key`]); a file that does not hold is refused ([`HierarchyFileError`]).
@@ -50,7 +58,12 @@ pub use build::Hierarchy;
 pub use cache::{CacheOutcome, FORMAT_VERSION, HierarchyFileError, hierarchy_key};
 use query::{Frames, Scratch, Walk, collide};
 
+use crate::area::AreaSplit;
+use crate::compact::Compactor;
 use crate::mesh::TriMesh;
+
+/// Most contacts a query writes by default ([`LodBackend::with_max_contacts`]).
+pub const DEFAULT_MAX_CONTACTS: usize = 256;
 
 /// Most vertices of a node's simplified convex piece.
 pub const MAX_PIECE_VERTICES: usize = 6;
@@ -118,6 +131,9 @@ pub struct LodBackend {
     tool: Hierarchy,
     obstacles: Vec<(Hierarchy, Pose)>,
     scratch: Scratch,
+    split: AreaSplit,
+    compactor: Compactor,
+    max_contacts: Option<usize>,
     stats: BuildStats,
 }
 
@@ -183,14 +199,30 @@ impl LodBackend {
             total_s: start.elapsed().as_secs_f64(),
         };
         Self {
+            split: AreaSplit::new(tool.triangle_count()),
             tool,
             obstacles,
             scratch: Scratch {
                 stack: Vec::with_capacity(stack_bound),
                 apart: Vec::new(),
             },
+            compactor: Compactor::new(),
+            max_contacts: Some(DEFAULT_MAX_CONTACTS),
             stats,
         }
+    }
+
+    /// The same back-end writing at most `max` contacts a query (merged as the module docs say),
+    /// or every contact found with `None` (at threshold 0, the all-pairs reference). `Some(0)`
+    /// and `Some(1)` are taken as 2: the deepest contact and one merged region.
+    pub fn with_max_contacts(mut self, max: Option<usize>) -> Self {
+        self.max_contacts = max;
+        self
+    }
+
+    /// Most contacts a query writes (`None`: every contact found).
+    pub fn max_contacts(&self) -> Option<usize> {
+        self.max_contacts
     }
 
     /// Build figures (time, node counts, memory).
@@ -273,6 +305,11 @@ impl CollisionBackend for LodBackend {
                 delta_m: params.delta_m,
             };
             collide(&self.tool, obs, &walk, &mut self.scratch, out, &mut stats)?;
+        }
+        self.split.split(out.as_mut_slice(), params.delta_m);
+        if let Some(max) = self.max_contacts {
+            let found = self.compactor.compact(out, params.delta_m, max);
+            stats.raw_contacts = found as u64;
         }
         Ok(stats)
     }

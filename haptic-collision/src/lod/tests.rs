@@ -188,11 +188,12 @@ fn min_distance_and_max_depth(set: &ContactSet) -> (Real, Real) {
 proptest! {
     #![proptest_config(ProptestConfig::with_cases(64))]
 
-    /// Threshold 0 is exact: the same contacts as the all-pairs reference.
+    /// Threshold 0 with every contact written is exact: the same contacts, with the same
+    /// areas, as the all-pairs reference.
     #[test]
     fn threshold_zero_matches_brute_force(seed in 0u64..1_000_000, pose_seed in 0u64..1_000_000) {
         let (tool, obstacles) = scene(seed);
-        let mut lod = LodBackend::new(&tool, &obstacles).unwrap();
+        let mut lod = LodBackend::new(&tool, &obstacles).unwrap().with_max_contacts(None);
         let mut reference = ReferenceBackend::new(&tool, &obstacles).unwrap();
         let pose = random_pose(&mut Lcg(pose_seed), 0.09);
         let params = QueryParams::new(0.01, 0.0).unwrap();
@@ -201,11 +202,23 @@ proptest! {
         reference.query(&pose, &params, &mut b).unwrap();
         prop_assert_eq!(a.len(), b.len());
         let key = |c: &haptic_core::Contact| (c.feature_a, c.feature_b);
-        let mut ka: Vec<_> = a.iter().map(key).collect();
-        let mut kb: Vec<_> = b.iter().map(key).collect();
-        ka.sort_unstable();
-        kb.sort_unstable();
-        prop_assert_eq!(&ka, &kb);
+        let mut ka: Vec<_> = a.iter().map(|c| (key(c), c.area_m2)).collect();
+        let mut kb: Vec<_> = b.iter().map(|c| (key(c), c.area_m2)).collect();
+        // (Two obstacles can give the same pair of indices: ties ordered by area.)
+        ka.sort_unstable_by(|x, y| x.0.cmp(&y.0).then(x.1.total_cmp(&y.1)));
+        kb.sort_unstable_by(|x, y| x.0.cmp(&y.0).then(x.1.total_cmp(&y.1)));
+        // The same pairs, with the same areas (to the rounding of sums taken in another order).
+        for (x, y) in ka.iter().zip(&kb) {
+            prop_assert_eq!(x.0, y.0);
+            prop_assert!((x.1 - y.1).abs() <= 1e-12 * x.1.max(1e-12), "{} {}", x.1, y.1);
+        }
+        // Each tool triangle's contacts add up to its area.
+        for t in ka.iter().map(|k| k.0.0) {
+            let sum: Real = a.iter().filter(|c| c.feature_a == t).map(|c| c.area_m2).sum();
+            let tri = tool.triangle(t as usize);
+            let area = 0.5 * (tri[1] - tri[0]).cross(&(tri[2] - tri[0])).norm();
+            prop_assert!((sum - area).abs() <= 1e-12 * area.max(1e-12), "{sum} {area}");
+        }
         let (da, pa) = min_distance_and_max_depth(&a);
         let (db, pb) = min_distance_and_max_depth(&b);
         if !a.is_empty() {
@@ -215,6 +228,45 @@ proptest! {
             prop_assert!(c.depth_m >= -0.01);
             prop_assert!((c.p_a - c.p_b - c.n * c.depth_m).norm() < 1e-12);
             prop_assert!((pose.transform_point(&c.r_a) - c.p_a).norm() < 1e-12);
+        }
+    }
+
+    /// Compact contacts at threshold 0: at most the cap, the same total weight `Σ a (d + δ)`
+    /// and closest approach (or deepest point) as every contact found, and `raw_contacts` says
+    /// how many.
+    #[test]
+    fn compact_contacts_keep_area_and_closest_approach(
+        seed in 0u64..1_000_000,
+        pose_seed in 0u64..1_000_000,
+        max in 2usize..64,
+    ) {
+        let (tool, obstacles) = scene(seed);
+        let mut all = LodBackend::new(&tool, &obstacles).unwrap().with_max_contacts(None);
+        let mut compact = all.clone().with_max_contacts(Some(max));
+        let pose = random_pose(&mut Lcg(pose_seed), 0.09);
+        let params = QueryParams::new(0.01, 0.0).unwrap();
+        let (mut a, mut b) = (ContactSet::new(), ContactSet::new());
+        all.query(&pose, &params, &mut a).unwrap();
+        let stats = compact.query(&pose, &params, &mut b).unwrap();
+        prop_assert_eq!(stats.raw_contacts as usize, a.len());
+        prop_assert!(b.len() <= max.max(2) && b.len() <= a.len());
+        // The clustering's weights, floored as it floors them.
+        let weight = |s: &ContactSet| {
+            s.iter()
+                .map(|c| c.area_m2 * (c.depth_m + 0.01).max(1e-5))
+                .sum::<Real>()
+        };
+        prop_assert!((weight(&a) - weight(&b)).abs() <= 1e-9 * weight(&a));
+        if !a.is_empty() {
+            let (da, pa) = min_distance_and_max_depth(&a);
+            let (db, pb) = min_distance_and_max_depth(&b);
+            prop_assert!(pa == pb, "{pa} {pb}");
+            // The deepest contact is kept: the closest approach when apart.
+            prop_assert!(pa > 0.0 || da == db, "{da} {db}");
+        }
+        for c in b.iter() {
+            prop_assert!(c.validate().is_ok() && c.area_m2 > 0.0);
+            prop_assert!((pose.transform_point(&c.r_a) - c.p_a).norm() < 1e-9);
         }
     }
 

@@ -1,0 +1,394 @@
+//! Compact contacts: the raw contacts of a query merged into at most `max` contacts that keep
+//! what the clustering and the penalty model read of them.
+//!
+//! A query near a large contact region finds one contact per triangle pair (or per coarse
+//! sample) within `δ`: tens of thousands on a finely tessellated pair, growing with the
+//! tessellation, when the force needs a few. [`Compactor::compact`] merges them, region by
+//! region, so that their number depends on the contact regions and not on the triangles:
+//!
+//! - Contacts are binned by a cubic grid of cell size `h` on the tool points `p_a` and by the
+//!   dominant axis and sign of their normal (six bins, so that the two flanks of a thin wall or
+//!   a thread, with opposed normals, do not merge; only a cap below 7 can force them together). `h` starts at an eighth of the contacts'
+//!   extent and doubles until at most `max − 1` cells are occupied; it never depends on the
+//!   scene's scale or tessellation, only on where the contacts are.
+//! - The contacts of a cell become one contact that keeps the sums the clustering reads
+//!   (`haptic-cluster`, eqs. 28–32, with weights `w_i = a_i (d_i + δ)`): depth, `p_a` and `r_a`
+//!   the `w`-weighted means (so `Σ w d` and `Σ w p` are kept), area `a = Σ w_i / (d + δ)` (so its
+//!   weight `a (d + δ)` is `Σ w_i`; it is `Σ a_i` when the depths agree, and less when they
+//!   differ, the price of keeping the representative's depth), normal `normalize(Σ w_i n_i)`.
+//!   A cluster that takes whole cells therefore gets the same centroid, weight and depth as
+//!   from the raw contacts; the normal's magnitude (how much the merged normals disagree) is
+//!   what is lost. (Keeping the area and the area-weighted depth instead makes every
+//!   representative shallower: on the jaws that cost a third of the force.)
+//! - The deepest raw contact is kept as it is, so the closest approach (or deepest point) that
+//!   the query reports is unchanged by compaction.
+//!
+//! Areas below [`AREA_FLOOR_M2`] (degenerate triangles) are raised to it, so every cell has a
+//! weight. A cell of one contact is that contact; merged cells carry no feature indices.
+
+use haptic_core::{Contact, ContactSet, NO_FEATURE, Real, Vec3};
+
+/// Smallest area a contact weighs for in a merge (m²): 10⁻¹⁸ m², a square nanometre.
+pub const AREA_FLOOR_M2: Real = 1e-18;
+
+/// Cells per side of the contacts' bounding box in the first pass.
+const FIRST_CELLS_PER_SIDE: Real = 8.0;
+
+/// The sums of one cell.
+#[derive(Debug, Clone, Copy)]
+struct Cell {
+    key: u64,
+    count: u32,
+    /// The cell's single contact, while it has one.
+    first: u32,
+    w: Real,
+    p_a: Vec3,
+    r_a: Vec3,
+    n: Vec3,
+    /// `Σ w_i d_i`.
+    w_depth: Real,
+    /// Normal of the cell's deepest contact (the fallback when the normals cancel).
+    deepest_n: Vec3,
+    deepest_d: Real,
+}
+
+const EMPTY: u64 = u64::MAX;
+
+impl Default for Cell {
+    fn default() -> Self {
+        Self {
+            key: EMPTY,
+            count: 0,
+            first: 0,
+            w: 0.0,
+            p_a: Vec3::zeros(),
+            r_a: Vec3::zeros(),
+            n: Vec3::zeros(),
+            w_depth: 0.0,
+            deepest_n: Vec3::z(),
+            deepest_d: Real::NEG_INFINITY,
+        }
+    }
+}
+
+/// Merges raw contacts into compact ones (see the module docs). Reused between queries: after
+/// warm-up it allocates nothing.
+#[derive(Debug, Clone, Default)]
+pub struct Compactor {
+    /// Open-addressing table of cells (a power of two, at least four times `max`).
+    table: Vec<Cell>,
+    /// Slots used in this pass, in the order first seen (so the output order is deterministic).
+    used: Vec<u32>,
+    /// The merged contacts, before they replace the raw ones.
+    merged: Vec<Contact>,
+}
+
+impl Compactor {
+    /// An empty compactor.
+    pub fn new() -> Self {
+        Self::default()
+    }
+
+    /// Replaces the contacts of `set` by at most `max` compact ones when there are more (see the
+    /// module docs); `delta_m` is the query's distance tolerance. `max` below 2 is taken as 2
+    /// (the deepest contact and one cell). Returns the number of contacts before compaction.
+    pub fn compact(&mut self, set: &mut ContactSet, delta_m: Real, max: usize) -> usize {
+        let max = max.max(2);
+        let raw = set.as_slice();
+        let n = raw.len();
+        if n <= max {
+            return n;
+        }
+        let Some(deepest) = deepest_index(raw) else {
+            return n;
+        };
+        let capacity = (4 * max).next_power_of_two();
+        if self.table.len() != capacity {
+            self.table.clear();
+            self.table.resize(capacity, Cell::default());
+        }
+        let (lo, extent) = bounds(raw);
+        let mut h = if extent > 0.0 {
+            extent / FIRST_CELLS_PER_SIDE
+        } else {
+            1.0
+        };
+        // Each pass either fits or doubles `h`. Once `h` exceeds the extent, every contact is
+        // in one spatial cell and at most six normal bins; should even that be too many (`max`
+        // below 7), the normals are no longer told apart and one cell remains, so this ends.
+        let mut by_normal = true;
+        while !self.bin(raw, deepest, &lo, h, by_normal, delta_m, max - 1) {
+            if h > extent {
+                by_normal = false;
+            }
+            h *= 2.0;
+        }
+        self.merged.clear();
+        self.merged.push(raw[deepest]);
+        for &slot in &self.used {
+            let c = &self.table[slot as usize];
+            self.merged.push(if c.count == 1 {
+                raw[c.first as usize]
+            } else {
+                merged_contact(c, delta_m)
+            });
+        }
+        set.clear();
+        set.extend(self.merged.iter().copied());
+        n
+    }
+
+    /// Bins every contact but `skip` with cell size `h` (and by normal when `by_normal`);
+    /// `false` (and the pass abandoned) when more than `limit` cells are occupied.
+    #[allow(clippy::too_many_arguments)]
+    fn bin(
+        &mut self,
+        raw: &[Contact],
+        skip: usize,
+        lo: &Vec3,
+        h: Real,
+        by_normal: bool,
+        delta_m: Real,
+        limit: usize,
+    ) -> bool {
+        for &slot in &self.used {
+            self.table[slot as usize] = Cell::default();
+        }
+        self.used.clear();
+        let mask = self.table.len() - 1;
+        let inv_h = 1.0 / h;
+        for (i, c) in raw.iter().enumerate() {
+            if i == skip {
+                continue;
+            }
+            let mut key = cell_key(&c.p_a, &c.n, lo, inv_h);
+            if !by_normal {
+                key &= !(7 << 61);
+            }
+            let mut slot = (hash(key) as usize) & mask;
+            loop {
+                let cell = &self.table[slot];
+                if cell.key == key || cell.key == EMPTY {
+                    break;
+                }
+                slot = (slot + 1) & mask;
+            }
+            let cell = &mut self.table[slot];
+            if cell.key == EMPTY {
+                if self.used.len() == limit {
+                    return false;
+                }
+                cell.key = key;
+                cell.first = i as u32;
+                self.used.push(slot as u32);
+            }
+            let area = c.area_m2.max(AREA_FLOOR_M2);
+            let w = area * (c.depth_m + delta_m).max(1e-3 * delta_m);
+            cell.count += 1;
+            cell.w += w;
+            cell.p_a += c.p_a * w;
+            cell.r_a += c.r_a * w;
+            cell.n += c.n * w;
+            cell.w_depth += w * c.depth_m;
+            if c.depth_m > cell.deepest_d {
+                cell.deepest_d = c.depth_m;
+                cell.deepest_n = c.n;
+            }
+        }
+        true
+    }
+}
+
+/// The deepest contact (the first of equals), `None` for an empty slice.
+fn deepest_index(raw: &[Contact]) -> Option<usize> {
+    let mut best: Option<(usize, Real)> = None;
+    for (i, c) in raw.iter().enumerate() {
+        if best.is_none_or(|(_, d)| c.depth_m > d) {
+            best = Some((i, c.depth_m));
+        }
+    }
+    best.map(|(i, _)| i)
+}
+
+/// The lower corner of the tool points' bounding box and its largest side.
+fn bounds(raw: &[Contact]) -> (Vec3, Real) {
+    let mut lo = Vec3::repeat(Real::INFINITY);
+    let mut hi = Vec3::repeat(Real::NEG_INFINITY);
+    for c in raw {
+        lo = lo.inf(&c.p_a);
+        hi = hi.sup(&c.p_a);
+    }
+    (lo, (hi - lo).max())
+}
+
+/// Cell index along each axis (21 bits each) and the normal's bin (3 bits), packed.
+#[inline]
+fn cell_key(p: &Vec3, n: &Vec3, lo: &Vec3, inv_h: Real) -> u64 {
+    let idx = |k: usize| (((p[k] - lo[k]) * inv_h) as u64).min((1 << 21) - 1);
+    let a = n.abs();
+    let axis: usize = if a.x >= a.y && a.x >= a.z {
+        0
+    } else if a.y >= a.z {
+        1
+    } else {
+        2
+    };
+    let bin = 2 * axis as u64 + u64::from(n[axis] < 0.0);
+    idx(0) | (idx(1) << 21) | (idx(2) << 42) | (bin << 61)
+}
+
+/// A multiplicative hash (Fibonacci hashing's constant), high bits folded down.
+#[inline]
+fn hash(key: u64) -> u64 {
+    let h = key.wrapping_mul(0x9E37_79B9_7F4A_7C15);
+    h ^ (h >> 29)
+}
+
+/// The contact a merged cell stands for (see the module docs).
+fn merged_contact(c: &Cell, delta_m: Real) -> Contact {
+    let p_a = c.p_a / c.w;
+    // A mean is at most the deepest of the cell; clamped there so that rounding never makes a
+    // merged contact deeper than the deepest raw one.
+    let d = (c.w_depth / c.w).min(c.deepest_d).max(-delta_m);
+    // The floor on `d + δ` is the clustering's (a cell of contacts all at `−δ`).
+    let area_m2 = c.w / (d + delta_m).max(1e-3 * delta_m);
+    let n = c.n.try_normalize(1e-9 * c.w).unwrap_or(c.deepest_n);
+    Contact {
+        p_a,
+        r_a: c.r_a / c.w,
+        p_b: p_a - n * d,
+        n,
+        depth_m: d,
+        feature_a: NO_FEATURE,
+        feature_b: NO_FEATURE,
+        area_m2,
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use proptest::prelude::*;
+
+    const DELTA: Real = 1e-3;
+
+    fn contact(p: Vec3, n: Vec3, d: Real, area: Real) -> Contact {
+        let n = n.normalize();
+        Contact::new(p, p * 2.0, p - n * d, n, d)
+            .unwrap()
+            .with_area(area)
+    }
+
+    /// The sums the clustering reads, over all contacts: `Σ w`, `Σ w p`, `Σ w r`, `Σ w d`.
+    fn moments(cs: &[Contact]) -> (Real, Vec3, Vec3, Real) {
+        let mut s = (0.0, Vec3::zeros(), Vec3::zeros(), 0.0);
+        for c in cs {
+            let w = c.area_m2 * (c.depth_m + DELTA);
+            s.0 += w;
+            s.1 += c.p_a * w;
+            s.2 += c.r_a * w;
+            s.3 += w * c.depth_m;
+        }
+        s
+    }
+
+    fn arb_contacts() -> impl Strategy<Value = Vec<Contact>> {
+        prop::collection::vec(
+            (
+                prop::array::uniform3(-0.05..0.05f64),
+                prop::array::uniform3(-1.0..1.0f64),
+                -0.9 * DELTA..2e-3,
+                1e-8..1e-5f64,
+            ),
+            1..2000,
+        )
+        .prop_map(|raw| {
+            raw.into_iter()
+                .filter(|(_, n, _, _)| Vec3::from(*n).norm() > 0.1)
+                .map(|(p, n, d, a)| contact(Vec3::from(p), Vec3::from(n), d, a))
+                .collect()
+        })
+    }
+
+    proptest! {
+        #![proptest_config(ProptestConfig::with_cases(96))]
+
+        /// At most `max` contacts come out; `Σ w`, `Σ w p`, `Σ w r` and `Σ w d` are kept, and
+        /// the area never grows; the deepest contact is kept as it is; every contact
+        /// is valid.
+        #[test]
+        fn compaction_keeps_the_moments_and_the_deepest_contact(
+            raw in arb_contacts(),
+            max in 2usize..300,
+        ) {
+            let mut set = ContactSet::new();
+            set.extend(raw.iter().copied());
+            let mut compactor = Compactor::new();
+            let before = compactor.compact(&mut set, DELTA, max);
+            prop_assert_eq!(before, raw.len());
+            prop_assert!(set.len() <= max.max(2));
+            if raw.len() <= max.max(2) {
+                prop_assert_eq!(set.as_slice(), &raw[..]);
+            }
+            let (w0, p0, r0, d0) = moments(&raw);
+            let (w1, p1, r1, d1) = moments(set.as_slice());
+            prop_assert!((w1 / w0 - 1.0).abs() < 1e-9, "{w0} {w1}");
+            prop_assert!((p1 - p0).norm() <= 1e-9 * w0, "{p0:?} {p1:?}");
+            prop_assert!((r1 - r0).norm() <= 1e-9 * w0);
+            prop_assert!((d1 - d0).abs() <= 1e-9 * w0 * 2e-3);
+            let area = |cs: &[Contact]| cs.iter().map(|c| c.area_m2).sum::<Real>();
+            prop_assert!(area(set.as_slice()) <= area(&raw) * (1.0 + 1e-9));
+            let deepest = raw.iter().map(|c| c.depth_m).fold(Real::NEG_INFINITY, Real::max);
+            prop_assert!(set.iter().any(|c| c.depth_m == deepest && raw.contains(c)));
+            for c in set.iter() {
+                prop_assert!(c.validate().is_ok());
+                prop_assert!((c.p_a - c.p_b - c.n * c.depth_m).norm() < 1e-12);
+            }
+        }
+    }
+
+    #[test]
+    fn opposed_flanks_never_merge() {
+        // Two faces of a 1 mm wall, pressed from both sides: 400 contacts each, normals opposed.
+        let mut set = ContactSet::new();
+        for i in 0..400 {
+            let (x, y) = ((i % 20) as Real * 1e-3, (i / 20) as Real * 1e-3);
+            set.push(contact(Vec3::new(x, y, 0.0), Vec3::z(), 1e-4, 1e-6));
+            set.push(contact(Vec3::new(x, y, 1e-3), -Vec3::z(), 1e-4, 1e-6));
+        }
+        Compactor::new().compact(&mut set, DELTA, 16);
+        assert!(set.len() <= 16);
+        let up: Real = set.iter().filter(|c| c.n.z > 0.0).map(|c| c.area_m2).sum();
+        let down: Real = set.iter().filter(|c| c.n.z < 0.0).map(|c| c.area_m2).sum();
+        assert!((up - 4e-4).abs() < 1e-12 && (down - 4e-4).abs() < 1e-12);
+        assert!(set.iter().all(|c| c.n.z.abs() == 1.0));
+    }
+
+    #[test]
+    fn a_warm_compactor_allocates_no_more() {
+        let mut set = ContactSet::new();
+        for i in 0..5000 {
+            let p = Vec3::new((i % 71) as Real * 1e-4, (i / 71) as Real * 1e-4, 0.0);
+            set.push(contact(p, Vec3::z(), 1e-4, 1e-8));
+        }
+        let raw = set.clone();
+        let mut compactor = Compactor::new();
+        compactor.compact(&mut set, DELTA, 256);
+        let caps = (
+            compactor.table.capacity(),
+            compactor.used.capacity(),
+            compactor.merged.capacity(),
+        );
+        let mut again = raw.clone();
+        compactor.compact(&mut again, DELTA, 256);
+        assert_eq!(again.as_slice(), set.as_slice());
+        assert_eq!(
+            caps,
+            (
+                compactor.table.capacity(),
+                compactor.used.capacity(),
+                compactor.merged.capacity()
+            )
+        );
+    }
+}
