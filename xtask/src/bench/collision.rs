@@ -11,13 +11,15 @@
 //! - Poses: 200 along one smooth closed path near contact (see [`jaws_poses`] and
 //!   [`approach_poses`]), replayed in order by every run; `--quick` replays them once, the full
 //!   run three times (times pooled).
-//! - Runs: parry, then LOD at thresholds 0, 0.4 %, 1 %, 2.5 % and 5 % of the tool's bounding
-//!   radius.
-//! - Wrench: contacts → `haptic_cluster::Clusterer` (K = 5, weights `d + δ`) →
+//! - Runs: the reference (`all-pairs`: LOD at threshold 0 writing every contact it finds,
+//!   `with_max_contacts(None)`), parry, then LOD as users get it (compact contacts, at most
+//!   256 a query) at thresholds 0, 0.4 %, 1 %, 2.5 % and 5 % of the tool's bounding radius.
+//! - Wrench: contacts → `haptic_cluster::Clusterer` (K = 5, weights `a (d + δ)`, `a` the area
+//!   each contact stands for) →
 //!   `haptic_dynamics::penalty::PenaltyModel` at the representatives (`k_c`, no damping: the tool
 //!   is at rest at each pose), torque about the tool origin. Error: per pose, `|W − W₀| / |W₀|`
-//!   with `W = (F, T / r)`, `r` the tool's bounding radius and `W₀` the LOD threshold-0 wrench;
-//!   the median over the poses is reported.
+//!   with `W = (F, T / r)`, `r` the tool's bounding radius and `W₀` the all-pairs wrench; the
+//!   median over the poses is reported.
 //! - Clustering: the reference warm-starts from its previous pose, as the runtime does. Every
 //!   other run clusters each pose from the reference's representatives of that pose
 //!   ([`Clusterer::warm_start_from`]), so both land in the same basin of Lloyd's method when the
@@ -26,7 +28,8 @@
 //!   clustering's own variability (the reference's contacts clustered cold against its warm
 //!   chain, `clustering_variability_rel_*`) are reported beside it.
 //! - Output: `DIR/collision.json` and `DIR/collision_work_precision.svg`; each row has the mean
-//!   and the most raw contacts of a query (`contacts_max`).
+//!   and the most contacts a query wrote (`contacts_mean`, `contacts_max`) and the most it found
+//!   before compaction (`raw_contacts_max`).
 //! - `--suite`: every scene of the generalization suite (see `suite.rs`).
 
 use std::path::Path;
@@ -47,6 +50,9 @@ use crate::common;
 use crate::plot::{self, Chart, Scale, Series};
 
 /// LOD error thresholds, fractions of the tool's bounding radius.
+/// The reference run's `backend` in the rows: LOD at threshold 0 writing every contact.
+pub(super) const REFERENCE: &str = "all-pairs";
+
 pub(super) const THRESHOLDS: [Real; 5] = [0.0, 0.004, 0.01, 0.025, 0.05];
 /// Poses per sequence.
 pub(super) const POSES: usize = 200;
@@ -111,29 +117,27 @@ pub(super) fn measure(scene: &Scene, passes: usize) -> anyhow::Result<SceneMeasu
     );
     let radius = lod.tool_bounding_radius_m();
 
-    // Reference run first (LOD at threshold 0), then the others.
-    let reference = run_backend(&mut lod, scene, 0.0, passes, radius, None)?;
-    let mut rows = Vec::new();
+    // Reference run first (every contact at threshold 0), then the others.
+    let mut all_pairs = lod.clone().with_max_contacts(None);
+    let reference = run_backend(&mut all_pairs, scene, 0.0, passes, radius, None)?;
+    drop(all_pairs);
+    let mut rows = vec![row(REFERENCE, 0.0, &reference, lod_build_s)];
     let parry_run = run_backend(&mut parry, scene, 0.0, passes, radius, Some(&reference))?;
     rows.push(row("parry", 0.0, &parry_run, parry_build_s));
     for &th in &THRESHOLDS {
-        if th == 0.0 {
-            // The reference itself (its errors are zero by definition).
-            rows.push(row("lod", th, &reference, lod_build_s));
-        } else {
-            let r = run_backend(&mut lod, scene, th, passes, radius, Some(&reference))?;
-            rows.push(row("lod", th, &r, lod_build_s));
-        }
+        let r = run_backend(&mut lod, scene, th, passes, radius, Some(&reference))?;
+        rows.push(row("lod", th, &r, lod_build_s));
     }
     for r in &rows {
         println!(
-            "{:>6} {:>6.1} %: median {:>9.1} µs, p99 {:>9.1} µs, contacts {:>8.1} (max {:>7}), node pairs {:>9.0}, wrench error median {:.3} (p90 {:.3}; own chain {:.3}), |F|/|F0| {:.3}",
+            "{:>9} {:>6.1} %: median {:>9.1} µs, p99 {:>9.1} µs, contacts {:>8.1} (max {:>7}, raw {:>7}), node pairs {:>9.0}, wrench error median {:.3} (p90 {:.3}; own chain {:.3}), |F|/|F0| {:.3}",
             r.backend,
             r.threshold * 100.0,
             r.median_s * 1e6,
             r.p99_s * 1e6,
             r.contacts_mean,
             r.contacts_max,
+            r.raw_contacts_max,
             r.node_pairs_mean,
             r.wrench_error_rel_median,
             r.wrench_error_rel_p90,
@@ -249,7 +253,7 @@ pub fn run(args: &super::CollisionArgs, out: &crate::OutArgs) -> anyhow::Result<
 }
 
 /// How the wrench and its error are computed (in every report).
-pub(super) const WRENCH: &str = "contacts -> haptic_cluster::Clusterer (K = 5, w = d + delta) -> haptic_dynamics::penalty::PenaltyModel (k_c, b_c = 0, tool at rest), torque about the tool origin; error |W - W0| / |W0| with W = (F, T / r), W0 = LOD at threshold 0. The reference warm-starts from its previous pose; the other runs cluster each pose from the reference's representatives of that pose (wrench_error_rel_*), and along their own chain of warm starts (wrench_error_rel_*_chained)";
+pub(super) const WRENCH: &str = "contacts -> haptic_cluster::Clusterer (K = 5, w = a (d + delta), a the tool area a contact stands for) -> haptic_dynamics::penalty::PenaltyModel (k_c, b_c = 0, tool at rest), torque about the tool origin; error |W - W0| / |W0| with W = (F, T / r), W0 = LOD at threshold 0 with every contact found (all-pairs). The reference warm-starts from its previous pose; the other runs cluster each pose from the reference's representatives of that pose (wrench_error_rel_*), and along their own chain of warm starts (wrench_error_rel_*_chained)";
 
 /// The work-precision chart of one scene's rows.
 pub(super) fn work_precision_chart(
@@ -311,6 +315,7 @@ pub(super) struct RunResult {
     times_s: Vec<Real>,
     contacts_mean: Real,
     contacts_max: usize,
+    raw_contacts_max: usize,
     node_pairs_mean: Real,
     /// The wrench of each pose `(F, T)` (first pass).
     pub wrenches: Vec<[Real; 6]>,
@@ -347,6 +352,7 @@ fn row(backend: &'static str, threshold: Real, r: &RunResult, build_s: Real) -> 
         p99_s: q(t, 0.99),
         contacts_mean: r.contacts_mean,
         contacts_max: r.contacts_max,
+        raw_contacts_max: r.raw_contacts_max,
         node_pairs_mean: r.node_pairs_mean,
         wrench_error_rel_median: q(e, 0.5),
         wrench_error_rel_p90: q(e, 0.9),
@@ -366,8 +372,10 @@ pub(super) struct Row {
     pub median_s: Real,
     pub p99_s: Real,
     pub contacts_mean: Real,
-    /// Most raw contacts of one query.
+    /// Most contacts one query wrote.
     pub contacts_max: usize,
+    /// Most contacts one query found before compacting them (`contacts_max` without compaction).
+    pub raw_contacts_max: usize,
     pub node_pairs_mean: Real,
     pub wrench_error_rel_median: Real,
     pub wrench_error_rel_p90: Real,
@@ -436,6 +444,7 @@ where
     let mut seeded = WrenchPipeline::new(scene, radius)?;
     let mut chained = WrenchPipeline::new(scene, radius)?;
     let (mut contacts, mut node_pairs, mut contacts_max) = (0usize, 0u64, 0usize);
+    let mut raw_contacts_max = 0usize;
     let mut cold_errors = Vec::new();
     for pass in 0..passes {
         for (i, pose) in scene.poses.iter().enumerate() {
@@ -447,6 +456,8 @@ where
             }
             contacts += out.len();
             contacts_max = contacts_max.max(out.len());
+            // A back-end that does not compact reports 0 raw contacts: all it found it wrote.
+            raw_contacts_max = raw_contacts_max.max((st.raw_contacts as usize).max(out.len()));
             node_pairs += st.node_pairs_tested;
             let (w, reps) = chained.wrench(&out, pose, scene.delta_m)?;
             chained_wrenches.push(w);
@@ -491,6 +502,7 @@ where
         times_s,
         contacts_mean: contacts as Real / n,
         contacts_max,
+        raw_contacts_max,
         node_pairs_mean: node_pairs as Real / n,
         errors: errors_against(&wrenches),
         errors_chained: errors_against(&chained_wrenches),
