@@ -60,6 +60,7 @@ fn contacts_json(cs: &[Contact]) -> Value {
         "p_b": v3(|c| c.p_b),
         "n": v3(|c| c.n),
         "depth": cs.iter().map(|c| c.depth_m).collect::<Vec<_>>(),
+        "area": cs.iter().map(|c| c.area_m2).collect::<Vec<_>>(),
         "feature_a": cs.iter().map(|c| c.feature_a).collect::<Vec<_>>(),
         "feature_b": cs.iter().map(|c| c.feature_b).collect::<Vec<_>>(),
     })

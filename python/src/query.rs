@@ -26,7 +26,8 @@ pub struct PyContacts {
 #[pymethods]
 impl PyContacts {
     #[new]
-    #[pyo3(signature = (p_a, r_a, p_b, n, depth, feature_a = None, feature_b = None))]
+    #[pyo3(signature = (p_a, r_a, p_b, n, depth, feature_a = None, feature_b = None, area = None))]
+    #[allow(clippy::too_many_arguments)]
     fn new(
         p_a: &Bound<'_, PyAny>,
         r_a: &Bound<'_, PyAny>,
@@ -35,6 +36,7 @@ impl PyContacts {
         depth: &Bound<'_, PyAny>,
         feature_a: Option<&Bound<'_, PyAny>>,
         feature_b: Option<&Bound<'_, PyAny>>,
+        area: Option<&Bound<'_, PyAny>>,
     ) -> PyResult<Self> {
         let p_a = convert::rows::<3>(p_a, "p_a", true)?;
         let k = p_a.len();
@@ -69,12 +71,19 @@ impl PyContacts {
         };
         let fa = features(feature_a, "feature_a")?;
         let fb = features(feature_b, "feature_b")?;
+        let area = match area {
+            None => vec![0.0; k],
+            Some(a) => convert::vector(a, "area", Some(k))?,
+        };
         let v = |r: &[f64; 3]| Vec3::new(r[0], r[1], r[2]);
         let mut contacts = Vec::with_capacity(k);
         for i in 0..k {
             let c = Contact::new(v(&p_a[i]), v(&r_a[i]), v(&p_b[i]), v(&n[i]), depth[i])
                 .map_err(|e| input("n", format!("contact {i}: {e}")))?
-                .with_features(fa[i], fb[i]);
+                .with_features(fa[i], fb[i])
+                .with_area(area[i]);
+            c.validate()
+                .map_err(|e| input("area", format!("contact {i}: {e}")))?;
             contacts.push(c);
         }
         Ok(Self { contacts })
@@ -110,6 +119,13 @@ impl PyContacts {
         convert::array1(py, self.contacts.iter().map(|c| c.depth_m).collect())
     }
 
+    /// Area of the tool's surface each contact stands for (m²; 0: not measured). The
+    /// clustering weighs contacts by it when every contact has one.
+    #[getter]
+    fn area<'py>(&self, py: Python<'py>) -> Bound<'py, PyArray1<f64>> {
+        convert::array1(py, self.contacts.iter().map(|c| c.area_m2).collect())
+    }
+
     /// Tool feature of each contact (0xFFFFFFFF: none).
     #[getter]
     fn feature_a<'py>(&self, py: Python<'py>) -> Bound<'py, PyArray1<u32>> {
@@ -141,6 +157,8 @@ pub struct PyQueryStats {
     node_pairs_tested: u64,
     /// Primitive (triangle or convex piece) pairs tested.
     primitive_pairs_tested: u64,
+    /// Contacts found before the back-end compacted them (0: it does not compact).
+    raw_contacts: u64,
     /// Wall time of the query (s), measured in Rust.
     time_s: f64,
 }
@@ -149,7 +167,7 @@ pub struct PyQueryStats {
 impl PyQueryStats {
     fn __repr__(&self) -> String {
         format!(
-            "QueryStats(broad_phase_hit={}, node_pairs_tested={}, primitive_pairs_tested={}, time_s={:.3e})",
+            "QueryStats(broad_phase_hit={}, node_pairs_tested={}, primitive_pairs_tested={}, raw_contacts={}, time_s={:.3e})",
             if self.broad_phase_hit {
                 "True"
             } else {
@@ -157,6 +175,7 @@ impl PyQueryStats {
             },
             self.node_pairs_tested,
             self.primitive_pairs_tested,
+            self.raw_contacts,
             self.time_s
         )
     }
@@ -210,13 +229,14 @@ fn query<B: CollisionBackend + Send>(
             broad_phase_hit: stats.broad_phase_hit,
             node_pairs_tested: stats.node_pairs_tested,
             primitive_pairs_tested: stats.primitive_pairs_tested,
+            raw_contacts: stats.raw_contacts,
             time_s,
         },
     ))
 }
 
 /// The native sensation-preserving multiresolution back-end: `LodBackend(tool, obstacles,
-/// cache_dir=None)`, the tool mesh in its body frame and `[(Mesh, pose), …]` the obstacles with
+/// cache_dir=None, max_contacts=256)`, the tool mesh in its body frame and `[(Mesh, pose), …]` the obstacles with
 /// their world poses. With `cache_dir`, each hierarchy is read back from that folder when it was
 /// saved there for the same mesh, and built and saved there otherwise (a file that cannot be
 /// used is rebuilt, never used). Building the hierarchies and querying release the GIL; one
@@ -232,12 +252,13 @@ pub struct PyLodBackend {
 #[pymethods]
 impl PyLodBackend {
     #[new]
-    #[pyo3(signature = (tool, obstacles, cache_dir = None))]
+    #[pyo3(signature = (tool, obstacles, cache_dir = None, max_contacts = Some(haptic_collision::DEFAULT_MAX_CONTACTS)))]
     fn new(
         py: Python<'_>,
         tool: PyRef<'_, PyMesh>,
         obstacles: &Bound<'_, PyAny>,
         cache_dir: Option<std::path::PathBuf>,
+        max_contacts: Option<usize>,
     ) -> PyResult<Self> {
         use haptic_collision::lod::CacheOutcome;
         let obstacles = self::obstacles(obstacles)?;
@@ -248,6 +269,7 @@ impl PyLodBackend {
                 Some(dir) => LodBackend::with_cache(&tool, &obstacles, dir),
             })
             .map_err(|e| collision(&e))?;
+        let backend = backend.with_max_contacts(max_contacts);
         let cache = cache
             .into_iter()
             .map(|o| match o {

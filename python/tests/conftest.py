@@ -158,7 +158,7 @@ def pose_arg(pose) -> str:
 def rust_reference(repo_root: Path) -> Callable[..., dict]:
     """Runs the Rust reference of one query (`haptic-collision`'s example `query_contacts`) with
     the given arguments and returns its JSON output, with the arrays as numpy arrays:
-    contacts (`p_a`, `r_a`, `p_b`, `n` (k, 3) float64, `depth` (k,) float64, `feature_a`,
+    contacts (`p_a`, `r_a`, `p_b`, `n` (k, 3) float64, `depth`, `area` (k,) float64, `feature_a`,
     `feature_b` (k,) uint32), `representatives` (the same keys), `representative_weights`,
     `force`, `torque`. Results are cached per argument list."""
     cache: dict[tuple[str, ...], dict] = {}
@@ -168,6 +168,7 @@ def rust_reference(repo_root: Path) -> Callable[..., dict]:
         for key in ("p_a", "r_a", "p_b", "n"):
             out[key] = np.array(raw[key], dtype=np.float64).reshape(-1, 3)
         out["depth"] = np.array(raw["depth"], dtype=np.float64).reshape(-1)
+        out["area"] = np.array(raw["area"], dtype=np.float64).reshape(-1)
         for key in ("feature_a", "feature_b"):
             out[key] = np.array(raw[key], dtype=np.uint32).reshape(-1)
         return out

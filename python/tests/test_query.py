@@ -98,7 +98,7 @@ def python_pipeline(backend, tool: haptic.Mesh, pose, threshold) -> dict:
     }
 
 
-CONTACT_KEYS = ("p_a", "r_a", "p_b", "n", "depth", "feature_a", "feature_b")
+CONTACT_KEYS = ("p_a", "r_a", "p_b", "n", "depth", "area", "feature_a", "feature_b")
 
 
 def assert_same_contacts(ours: haptic.Contacts, theirs: dict, what: str) -> None:
@@ -187,7 +187,10 @@ def test_contacts_are_numpy_arrays(jaws_lod):
         assert type(a) is np.ndarray, key
         assert a.dtype == np.float64 and a.shape == (k, 3), (key, a.dtype, a.shape)
         assert np.all(np.isfinite(a)), key
-    for key, dtype in (("depth", np.float64), ("feature_a", np.uint32), ("feature_b", np.uint32)):
+    for key, dtype in (
+        ("depth", np.float64), ("area", np.float64), ("feature_a", np.uint32),
+        ("feature_b", np.uint32),
+    ):
         a = getattr(contacts, key)
         assert type(a) is np.ndarray, key
         assert a.dtype == dtype and a.shape == (k,), (key, a.dtype, a.shape)
@@ -206,6 +209,27 @@ def test_contacts_are_numpy_arrays(jaws_lod):
     assert stats.broad_phase_hit is True
     assert stats.node_pairs_tested > 0 and stats.primitive_pairs_tested > 0
     assert 0 < stats.time_s < 10
+
+
+def test_contacts_are_compact_and_weighted_by_area(jaws_meshes, jaws_lod):
+    # The jaws in occlusion at threshold 0: thousands of triangle pairs within δ, at most 256
+    # contacts returned by default, every contact standing for some of the upper jaw's surface;
+    # max_contacts=None returns them all, with the same total weight area * (depth + δ).
+    upper, lower = jaws_meshes
+    pose = POSES["occlusion"]
+    compact, stats = jaws_lod.query(pose, delta=DELTA, threshold=0.0)
+    assert 0 < len(compact) <= 256 < stats.raw_contacts
+    assert np.all(compact.area > 0)
+    everything = haptic.LodBackend(upper, [(lower, IDENTITY)], max_contacts=None)
+    raw, raw_stats = everything.query(pose, delta=DELTA, threshold=0.0)
+    assert len(raw) == stats.raw_contacts and raw_stats.raw_contacts == 0
+    weight = lambda c: np.sum(c.area * np.maximum(c.depth + DELTA, 1e-3 * DELTA))
+    assert weight(compact) == pytest.approx(weight(raw), rel=1e-9)
+    assert compact.depth.max() == raw.depth.max()
+    with pytest.raises(haptic.InputError) as e:
+        haptic.Contacts(compact.p_a, compact.r_a, compact.p_b, compact.n, compact.depth,
+                        area=-compact.area)
+    assert e.value.field == "area"
 
 
 def test_free_space_query(jaws_lod):

@@ -214,12 +214,12 @@ class Contacts:
     """A set of contacts between the tool (a) and the obstacles (b), as arrays: no Python object
     per contact. Each property returns a fresh numpy array.
 
-    ``Contacts(p_a, r_a, p_b, n, depth, feature_a=None, feature_b=None)`` builds one from arrays
-    (the features default to none, ``0xFFFFFFFF``).
+    ``Contacts(p_a, r_a, p_b, n, depth, feature_a=None, feature_b=None, area=None)`` builds one
+    from arrays (the features default to none, ``0xFFFFFFFF``, the areas to 0: not measured).
 
     Raises:
-        InputError: a wrong shape, rows that do not match ``p_a``, a NaN, or a normal that is
-            not unit within 1e-6 (``.field == "n"``).
+        InputError: a wrong shape, rows that do not match ``p_a``, a NaN, a normal that is
+            not unit within 1e-6 (``.field == "n"``), or a negative area (``"area"``).
     """
 
     def __init__(
@@ -231,6 +231,7 @@ class Contacts:
         depth: ArrayLike,
         feature_a: ArrayLike | None = None,
         feature_b: ArrayLike | None = None,
+        area: ArrayLike | None = None,
     ) -> None: ...
     @property
     def p_a(self) -> NDArray[np.float64]:
@@ -248,6 +249,10 @@ class Contacts:
     def depth(self) -> NDArray[np.float64]:
         """Penetration depths (m), ``(k,)``: positive when ``p_a`` is inside the obstacle,
         negative (down to ``-delta``) when apart but within the distance tolerance."""
+    @property
+    def area(self) -> NDArray[np.float64]:
+        """The tool surface each contact stands for (m²), ``(k,)``; 0: not measured. The
+        clustering weighs contacts by ``area * (depth + delta)`` when every contact has one."""
     @property
     def feature_a(self) -> NDArray[np.uint32]:
         """The tool triangle (or hierarchy node) of each contact, ``(k,)``; ``0xFFFFFFFF``:
@@ -273,19 +278,29 @@ class QueryStats:
     def primitive_pairs_tested(self) -> int:
         """Primitive (triangle) pairs tested exactly."""
     @property
+    def raw_contacts(self) -> int:
+        """Contacts found before the back-end compacted them into the ones returned (0 when
+        it does not compact: ``ParryBackend``, or ``LodBackend(max_contacts=None)``)."""
+    @property
     def time_s(self) -> float:
         """Wall time of the query (s), measured in Rust around the query alone."""
 
 class LodBackend:
     """The sensation-preserving multiresolution collision back-end (Otaduy & Lin).
 
-    ``LodBackend(tool, obstacles, cache_dir=None)``: ``tool`` the tool mesh in its body frame
+    ``LodBackend(tool, obstacles, cache_dir=None, max_contacts=256)``: ``tool`` the tool mesh in its body frame
     (the frame whose pose the queries give), ``obstacles`` a list of ``(Mesh, pose)`` pairs
     placing each obstacle in the world. With ``cache_dir``, each hierarchy is read back from that
     folder when it was saved there for the same mesh and build (the jaws: 0.06 s instead of about
     1 s), and built and saved there otherwise; a file that cannot be used (cut short, corrupt,
     another version or mesh) is rebuilt and replaced, never used. Building the hierarchies
     releases the GIL.
+
+    A query returns at most ``max_contacts`` contacts: when it finds more, they are merged region
+    by region into that many, keeping what the clustering reads of them (their weights
+    ``area * (depth + delta)``, weighted centroids and depths) and the deepest contact as it is;
+    ``QueryStats.raw_contacts`` says how many were found. ``max_contacts=None`` returns every
+    contact found (at ``threshold=0``, the all-pairs reference).
 
     Raises:
         InputError: an obstacle that is not a ``(Mesh, pose)`` pair (``.field ==
@@ -298,6 +313,7 @@ class LodBackend:
         tool: Mesh,
         obstacles: Iterable[tuple[Mesh, _Pose]],
         cache_dir: str | os.PathLike[str] | None = None,
+        max_contacts: int | None = 256,
     ) -> None: ...
     @property
     def cache_report(self) -> list[tuple[str, str]]:
