@@ -33,8 +33,8 @@
 //! [`NO_FEATURE`](haptic_core::NO_FEATURE) for contacts between coarse pieces.
 //!
 //! Compact contacts: the contacts found are then given their areas (each triangle-pair contact
-//! a share of its tool triangle, each coarse sample a share of its tool node's surface; see
-//! `area.rs`) and, when there are more than [`LodBackend::max_contacts`] (default
+//! a share of its tool triangle, each coarse sample a share of its tool node's surface, shared
+//! again among the obstacle pieces it is within `δ` of; see `area.rs`) and, when there are more than [`LodBackend::max_contacts`] (default
 //! [`DEFAULT_MAX_CONTACTS`]), merged region by region into that many by
 //! [`crate::compact::Compactor`], which keeps the sums the clustering reads and the deepest
 //! contact. [`LodBackend::with_max_contacts`]`(None)` writes every contact found: the all-pairs
@@ -58,7 +58,7 @@ pub use build::Hierarchy;
 pub use cache::{CacheOutcome, FORMAT_VERSION, HierarchyFileError, hierarchy_key};
 use query::{Frames, Scratch, Walk, collide};
 
-use crate::area::AreaSplit;
+use crate::area::{AreaSplit, SampleSplit};
 use crate::compact::Compactor;
 use crate::mesh::TriMesh;
 
@@ -132,6 +132,7 @@ pub struct LodBackend {
     obstacles: Vec<(Hierarchy, Pose)>,
     scratch: Scratch,
     split: AreaSplit,
+    sample_split: SampleSplit,
     compactor: Compactor,
     max_contacts: Option<usize>,
     stats: BuildStats,
@@ -205,7 +206,9 @@ impl LodBackend {
             scratch: Scratch {
                 stack: Vec::with_capacity(stack_bound),
                 apart: Vec::new(),
+                tags: Vec::new(),
             },
+            sample_split: SampleSplit::default(),
             compactor: Compactor::new(),
             max_contacts: Some(DEFAULT_MAX_CONTACTS),
             stats,
@@ -250,12 +253,17 @@ impl LodBackend {
                 .sum::<usize>()
             + self.scratch.stack.capacity() * std::mem::size_of::<(u32, u32)>()
             + self.scratch.apart.capacity() * std::mem::size_of::<(Real, u32, u32)>()
+            + self.scratch.tags.capacity() * std::mem::size_of::<(u32, u64)>()
+            + self.sample_split.capacity() * std::mem::size_of::<(u64, Real)>()
     }
 
     /// Capacity of the query's scratch buffers, in elements (they are reused between queries;
     /// tests check that they stop growing after warm-up).
     pub fn scratch_capacity(&self) -> usize {
-        self.scratch.stack.capacity() + self.scratch.apart.capacity()
+        self.scratch.stack.capacity()
+            + self.scratch.apart.capacity()
+            + self.scratch.tags.capacity()
+            + self.sample_split.capacity()
     }
 
     /// The tool's hierarchy.
@@ -287,6 +295,7 @@ impl CollisionBackend for LodBackend {
             return Err(LodError::NonFinitePose { what: "tool pose" });
         }
         let mut stats = QueryStats::default();
+        self.scratch.tags.clear();
         let epsilon_m = params.error_threshold * self.tool.radius_about_origin_m();
         let tool_root = self.tool.nodes[0];
         let tool_center_w = tool_pose.transform_point(&tool_root.center);
@@ -307,6 +316,8 @@ impl CollisionBackend for LodBackend {
             collide(&self.tool, obs, &walk, &mut self.scratch, out, &mut stats)?;
         }
         self.split.split(out.as_mut_slice(), params.delta_m);
+        self.sample_split
+            .split(out.as_mut_slice(), &self.scratch.tags, params.delta_m);
         if let Some(max) = self.max_contacts {
             let found = self.compactor.compact(out, params.delta_m, max);
             stats.raw_contacts = found as u64;

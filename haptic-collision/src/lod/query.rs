@@ -4,6 +4,7 @@ use haptic_core::{Contact, ContactSet, Mat3, NO_FEATURE, Pose, QueryStats, Real,
 
 use super::build::{Hierarchy, Node, plane_basis};
 use super::{LodError, MAX_PIECE_VERTICES};
+use crate::area::SampleSplit;
 use crate::geometry::{
     PairContact, closest_point_on_polygon_2d, convex_polygon_pair, crossing_witness,
 };
@@ -142,6 +143,9 @@ fn apart_along_centroids(a: &[Vec3], b: &[Vec3], delta: Real) -> bool {
 /// Subdivisions of each fan triangle's edges in [`fan_samples`].
 const SAMPLE_LEVEL: usize = 3;
 
+/// The sample key of a coarse pair's crossing contact (sample indices stay below it).
+const CROSSING_SAMPLE: usize = 63;
+
 /// Most sample points of a coarse pair (`1 + m · L (L + 1) / 2` for a piece of `m` vertices).
 const MAX_SAMPLES: usize = 1 + MAX_PIECE_VERTICES * SAMPLE_LEVEL * (SAMPLE_LEVEL + 1) / 2;
 
@@ -241,6 +245,8 @@ impl PlanarPiece {
 #[allow(clippy::too_many_arguments)]
 fn emit_coarse(
     a: &[Vec3],
+    node: u32,
+    tags: &mut Vec<(u32, u64)>,
     area_m2: Real,
     budget: u32,
     na: &Vec3,
@@ -263,11 +269,12 @@ fn emit_coarse(
             depth: 0.0,
             distance: 0.0,
         };
+        tags.push((out.len() as u32, SampleSplit::key(node, CROSSING_SAMPLE)));
         frames.emit(&touching, NO_FEATURE, NO_FEATURE, share, out)?;
         nearest = 0.0;
     }
     let piece = PlanarPiece::new(b, nb);
-    for x in &pts[..count] {
+    for (k, x) in pts[..count].iter().enumerate() {
         let Some((c, _)) = piece.closest_within(x, delta) else {
             continue;
         };
@@ -287,6 +294,7 @@ fn emit_coarse(
             depth: -len,
             distance: len,
         };
+        tags.push((out.len() as u32, SampleSplit::key(node, k)));
         frames.emit(&sample, NO_FEATURE, NO_FEATURE, share, out)?;
         nearest = nearest.min(len);
     }
@@ -309,6 +317,9 @@ pub(crate) struct Scratch {
     pub stack: Vec<(u32, u32)>,
     /// Coarse pairs whose pieces do not cross: a lower bound on their distance, and the nodes.
     pub apart: Vec<(Real, u32, u32)>,
+    /// Coarse contacts of the whole query (all obstacles): their index in the contact set and
+    /// their sample's key, for [`SampleSplit`]. Cleared by the query, not by each walk.
+    pub tags: Vec<(u32, u64)>,
 }
 
 /// Walks tool × obstacle from the root pair, writing contacts into `out`.
@@ -328,7 +339,7 @@ pub(crate) fn collide(
     out: &mut ContactSet,
     stats: &mut QueryStats,
 ) -> Result<(), LodError> {
-    let Scratch { stack, apart } = scratch;
+    let Scratch { stack, apart, tags } = scratch;
     stack.clear();
     apart.clear();
     stack.push((0, 0));
@@ -371,6 +382,8 @@ pub(crate) fn collide(
                 let budget = a.triangles.saturating_mul(b.triangles);
                 let near = emit_coarse(
                     &buf[..len],
+                    ia,
+                    tags,
                     tool.area_of(ia),
                     budget,
                     &na,
@@ -472,7 +485,9 @@ mod tests {
                 .collect();
             let frames = Frames::new(&Pose::identity(), &Pose::identity());
             let mut out = ContactSet::new();
-            let r = emit_coarse(&a, 1e-4, 64, &(-n), &b, &n, 1e-3, &frames, &mut out);
+            let mut tags = Vec::new();
+            let r = emit_coarse(&a, 0, &mut tags, 1e-4, 64, &(-n), &b, &n, 1e-3, &frames, &mut out);
+            prop_assert_eq!(tags.len(), out.len());
             prop_assert!(r.is_ok(), "{r:?}");
             for c in out.iter() {
                 prop_assert!((c.n.norm() - 1.0).abs() < 1e-9);
