@@ -69,20 +69,12 @@ impl DeviceLimits {
         let mut clamped = false;
         let f = w.force.norm();
         if f > self.max_force_n {
-            out.force = if f > 0.0 {
-                w.force * (self.max_force_n / f)
-            } else {
-                Vec3::zeros()
-            };
+            out.force = clamp_norm(&w.force, f, self.max_force_n);
             clamped = true;
         }
         let t = w.torque.norm();
         if t > self.max_torque_nm {
-            out.torque = if t > 0.0 {
-                w.torque * (self.max_torque_nm / t)
-            } else {
-                Vec3::zeros()
-            };
+            out.torque = clamp_norm(&w.torque, t, self.max_torque_nm);
             clamped = true;
         }
         (out, clamped)
@@ -248,6 +240,56 @@ mod tests {
         let (w, c) = l.saturate(&Wrench::new(Vec3::new(Real::NAN, 0.0, 0.0), Vec3::zeros()));
         assert!(c && w == Wrench::zero());
     }
+
+    #[test]
+    fn saturated_wrenches_never_exceed_the_limits_by_rounding() {
+        // Many directions and magnitudes: the clamped norm is never above the limit, not even
+        // by an ulp (plain scaling by max / norm exceeds it on some of these).
+        let l = limits();
+        let mut x: u64 = 0x2545_F491_4F6C_DD1D;
+        let mut next = || {
+            x ^= x << 13;
+            x ^= x >> 7;
+            x ^= x << 17;
+            (x >> 11) as Real / (1u64 << 53) as Real - 0.5
+        };
+        let mut plain_over = 0;
+        for _ in 0..20_000 {
+            let v = Vec3::new(next(), next(), next()) * (1.0 + 1e3 * next().abs());
+            if v.norm() <= l.max_force_n {
+                continue;
+            }
+            plain_over += usize::from((v * (l.max_force_n / v.norm())).norm() > l.max_force_n);
+            let (w, c) = l.saturate(&Wrench::new(v, v));
+            assert!(c);
+            assert!(w.force.norm() <= l.max_force_n, "{}", w.force.norm());
+            assert!(w.torque.norm() <= l.max_torque_nm, "{}", w.torque.norm());
+            assert!((w.force.norm() / l.max_force_n - 1.0).abs() < 1e-14);
+            assert!((w.force.normalize() - v.normalize()).norm() < 1e-14);
+        }
+        assert!(
+            plain_over > 0,
+            "the test never met the rounding it guards against"
+        );
+    }
+}
+
+/// `v` (of norm `norm > max`) scaled to norm `max` or just below: `v · (max / norm)` can come
+/// out an ulp or two above `max` by rounding (a spoon pressed into a cup was sent
+/// 10.000000000000002 N against a 10 N limit), so the scale is lowered by an ulp until it is not.
+fn clamp_norm(v: &Vec3, norm: Real, max: Real) -> Vec3 {
+    if !(norm > 0.0) {
+        return Vec3::zeros();
+    }
+    let mut scale = max / norm;
+    for _ in 0..8 {
+        let out = v * scale;
+        if out.norm() <= max {
+            return out;
+        }
+        scale *= 1.0 - Real::EPSILON;
+    }
+    v * (scale * 0.5)
 }
 
 /// What went wrong with a device, independent of the device's own error type.
