@@ -8,9 +8,11 @@
 //!
 //! - Contacts are binned by a cubic grid of cell size `h` on the tool points `p_a` and by the
 //!   dominant axis and sign of their normal (six bins, so that the two flanks of a thin wall or
-//!   a thread, with opposed normals, do not merge; only a cap below 7 can force them together). `h` starts at an eighth of the contacts'
-//!   extent and doubles until at most `max − 1` cells are occupied; it never depends on the
-//!   scene's scale or tessellation, only on where the contacts are.
+//!   a thread, with opposed normals, do not merge; only a cap below 7 can force them together).
+//!   `h` starts at an eighth of the contacts' extent and grows until at most `max − 1` cells are
+//!   occupied, each time by the square root of how many cells too many a pass found (and 5 %
+//!   more), so the last pass lands just under the cap; it never depends on the scene's scale or
+//!   tessellation, only on where the contacts are.
 //! - The contacts of a cell become one contact that keeps the sums the clustering reads
 //!   (`haptic-cluster`, eqs. 28–32, with weights `w_i = a_i (d_i + δ)`): depth, `p_a` and `r_a`
 //!   the `w`-weighted means (so `Σ w d` and `Σ w p` are kept), area `a = Σ w_i / (d + δ)` (so its
@@ -113,15 +115,24 @@ impl Compactor {
         } else {
             1.0
         };
-        // Each pass either fits or doubles `h`. Once `h` exceeds the extent, every contact is
-        // in one spatial cell and at most six normal bins; should even that be too many (`max`
-        // below 7), the normals are no longer told apart and one cell remains, so this ends.
+        // A pass that does not fit grows `h`: by the square root of how many cells too many it
+        // found (a surface's cells go as 1/h²) and 5 % more, so that the last pass lands just
+        // under the cap, or doubles it when even the count overflowed. Once `h` exceeds the
+        // extent, every contact is in one spatial cell and at most six normal bins; should even
+        // that be too many (`max` below 7), the normals are no longer told apart and one cell
+        // remains, so this ends.
+        let fit = max - 1;
+        let count_limit = (self.table.len() / 2).max(fit);
         let mut by_normal = true;
-        while !self.bin(raw, deepest, &lo, h, by_normal, delta_m, max - 1) {
+        loop {
+            match self.bin(raw, deepest, &lo, h, by_normal, delta_m, count_limit) {
+                Some(cells) if cells <= fit => break,
+                Some(cells) => h *= 1.05 * (cells as Real / fit as Real).sqrt(),
+                None => h *= 2.0,
+            }
             if h > extent {
                 by_normal = false;
             }
-            h *= 2.0;
         }
         self.merged.clear();
         self.merged.push(raw[deepest]);
@@ -138,8 +149,8 @@ impl Compactor {
         n
     }
 
-    /// Bins every contact but `skip` with cell size `h` (and by normal when `by_normal`);
-    /// `false` (and the pass abandoned) when more than `limit` cells are occupied.
+    /// Bins every contact but `skip` with cell size `h` (and by normal when `by_normal`); the
+    /// number of cells occupied, or `None` (and the pass abandoned) when more than `limit`.
     #[allow(clippy::too_many_arguments)]
     fn bin(
         &mut self,
@@ -150,7 +161,7 @@ impl Compactor {
         by_normal: bool,
         delta_m: Real,
         limit: usize,
-    ) -> bool {
+    ) -> Option<usize> {
         for &slot in &self.used {
             self.table[slot as usize] = Cell::default();
         }
@@ -176,7 +187,7 @@ impl Compactor {
             let cell = &mut self.table[slot];
             if cell.key == EMPTY {
                 if self.used.len() == limit {
-                    return false;
+                    return None;
                 }
                 cell.key = key;
                 cell.first = i as u32;
@@ -195,7 +206,7 @@ impl Compactor {
                 cell.deepest_n = c.n;
             }
         }
-        true
+        Some(self.used.len())
     }
 }
 

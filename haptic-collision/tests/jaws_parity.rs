@@ -41,7 +41,10 @@ fn lod_agrees_with_parry_on_the_jaws() {
     let com = upper.mass_properties(1000.0).unwrap().centre_of_mass_m;
     let tool = upper.translated(&-com).unwrap();
     let obstacles = [(lower, Pose::identity())];
-    let mut lod = LodBackend::new(&tool, &obstacles).unwrap();
+    // Every contact found: the pairs are compared one by one.
+    let mut lod = LodBackend::new(&tool, &obstacles)
+        .unwrap()
+        .with_max_contacts(None);
     let mut plain = ParryBackend::with_options(
         &tool,
         &obstacles,

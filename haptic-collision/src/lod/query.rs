@@ -179,6 +179,54 @@ fn fan_samples(a: &[Vec3], pts: &mut [Vec3; MAX_SAMPLES], budget: u32) -> usize 
     count
 }
 
+/// The area each sample of [`fan_samples`] stands for, as a fraction of the piece's (they add
+/// up to 1): a point of fan triangle `i` stands for that triangle's area over its points, a
+/// point on the edge two fan triangles share for the mean of theirs, the centroid for the mean
+/// fan triangle. Equal shares would over-weigh the narrow fan triangles of an irregular piece,
+/// which get as many points as the wide ones. `count` is what [`fan_samples`] returned.
+#[inline]
+fn fan_weights(a: &[Vec3], count: usize, wts: &mut [Real; MAX_SAMPLES]) {
+    let m = a.len();
+    let centroid = a.iter().sum::<Vec3>() / m as Real;
+    let per = (count - 1) / m;
+    let mut fan = [0.0; MAX_PIECE_VERTICES];
+    for i in 0..m {
+        let next = a[if i + 1 == m { 0 } else { i + 1 }];
+        fan[i] = 0.5 * (a[i] - centroid).cross(&(next - centroid)).norm();
+    }
+    let total: Real = fan[..m].iter().sum();
+    if !(total > 0.0) || per == 0 {
+        wts[..count].fill(1.0 / count as Real);
+        return;
+    }
+    wts[0] = total / m as Real;
+    let mut j = 1;
+    for i in 0..m {
+        let prev = fan[if i == 0 { m - 1 } else { i - 1 }];
+        // Rows r = 1..=L of r points each; the first point of a row lies on the edge from the
+        // centroid to vertex i, shared with the previous fan triangle.
+        let mut r = 1;
+        let mut k = 0;
+        for _ in 0..per {
+            wts[j] = if k == 0 {
+                0.5 * (prev + fan[i])
+            } else {
+                fan[i]
+            };
+            j += 1;
+            k += 1;
+            if k == r {
+                r += 1;
+                k = 0;
+            }
+        }
+    }
+    let sum: Real = wts[..count].iter().sum();
+    for w in &mut wts[..count] {
+        *w /= sum;
+    }
+}
+
 /// The obstacle piece in the frame of its plane (`u, w` in the plane, `n` its normal), for the
 /// distances of many points to it.
 struct PlanarPiece {
@@ -235,8 +283,9 @@ impl PlanarPiece {
 ///   direction, on whichever side of the obstacle piece it lies (a triangle below the obstacle's
 ///   surface by `h` is `h` away from every triangle it is paired with), kept when within `δ`.
 ///
-/// Each contact stands for an equal share of `area_m2`, the surface area below the tool node
-/// (the crossing contact and every sample generated, within `δ` or not, take one share each).
+/// Each contact stands for a share of `area_m2`, the surface area below the tool node: the
+/// crossing contact one equal share, every sample generated (within `δ` or not) its part of the
+/// rest by [`fan_weights`].
 ///
 /// On the jaws at 2.5 %, these contacts (rather than the pieces' exact closest points and
 /// samples at the vertices alone) bring the error of the clustered wrench from 10 % to about
@@ -260,7 +309,11 @@ fn emit_coarse(
     let mut pts = [Vec3::zeros(); MAX_SAMPLES];
     let count = fan_samples(a, &mut pts, budget);
     let crossing = crossing_witness(a, na, b, nb);
+    // The crossing contact takes one sample's share; the samples the rest, by `fan_weights`.
     let share = area_m2 / (count + usize::from(crossing.is_some())) as Real;
+    let mut wts = [0.0; MAX_SAMPLES];
+    fan_weights(a, count, &mut wts);
+    let sampled_m2 = area_m2 - if crossing.is_some() { share } else { 0.0 };
     if let Some(x) = crossing {
         let touching = PairContact {
             p_a: x,
@@ -295,7 +348,7 @@ fn emit_coarse(
             distance: len,
         };
         tags.push((out.len() as u32, SampleSplit::key(node, k)));
-        frames.emit(&sample, NO_FEATURE, NO_FEATURE, share, out)?;
+        frames.emit(&sample, NO_FEATURE, NO_FEATURE, sampled_m2 * wts[k], out)?;
         nearest = nearest.min(len);
     }
     Ok(nearest)
@@ -542,6 +595,11 @@ mod tests {
             for v in &a {
                 prop_assert!(pts[..count].iter().any(|p| (p - v).norm() < 1e-12));
             }
+            // The weights add up to 1, each positive, and follow the fan triangles' areas.
+            let mut wts = [0.0; MAX_SAMPLES];
+            fan_weights(&a, count, &mut wts);
+            prop_assert!((wts[..count].iter().sum::<Real>() - 1.0).abs() < 1e-12);
+            prop_assert!(wts[..count].iter().all(|&w| w > 0.0));
             // A budget lowers the level, down to the centroid and the vertices.
             prop_assert_eq!(fan_samples(&a, &mut pts, (1 + 3 * m) as u32), 1 + 3 * m);
             prop_assert_eq!(fan_samples(&a, &mut pts, 3 * m as u32), 1 + m);
