@@ -278,7 +278,7 @@ mod tests {
 /// out an ulp or two above `max` by rounding (a spoon pressed into a cup was sent
 /// 10.000000000000002 N against a 10 N limit), so the scale is lowered by an ulp until it is not.
 fn clamp_norm(v: &Vec3, norm: Real, max: Real) -> Vec3 {
-    if !(norm > 0.0) {
+    if norm.is_nan() || norm <= 0.0 {
         return Vec3::zeros();
     }
     let mut scale = max / norm;

@@ -195,7 +195,7 @@ fn fan_weights(a: &[Vec3], count: usize, wts: &mut [Real; MAX_SAMPLES]) {
         fan[i] = 0.5 * (a[i] - centroid).cross(&(next - centroid)).norm();
     }
     let total: Real = fan[..m].iter().sum();
-    if !(total > 0.0) || per == 0 {
+    if total.is_nan() || total <= 0.0 || per == 0 {
         wts[..count].fill(1.0 / count as Real);
         return;
     }
