@@ -141,10 +141,10 @@ pub struct ClusterStats {
     pub cost: Real,
 }
 
-/// Weight of a contact, `d + δ`, floored so it stays positive.
+/// Weight of a contact, `d + δ`, floored so it stays positive (`haptic_core::gap_weight_m`).
 #[inline]
 fn weight(depth_m: Real, delta_m: Real) -> Real {
-    (depth_m + delta_m).max(1e-3 * delta_m)
+    haptic_core::gap_weight_m(depth_m, delta_m)
 }
 
 /// Contact positions in structure-of-arrays form, so that distance loops vectorise.

@@ -18,6 +18,8 @@
 
 use haptic_core::{Contact, NO_FEATURE, Real, Vec3};
 
+use crate::compact::hash;
+
 /// Area of a triangle (m² for vertices in m).
 #[inline]
 pub(crate) fn triangle_area(t: &[Vec3; 3]) -> Real {
@@ -43,7 +45,7 @@ impl AreaSplit {
     /// contacts, in proportion to their gaps `d + δ` (`delta_m` the query's δ). Contacts
     /// without a triangle ([`NO_FEATURE`]) keep theirs.
     pub fn split(&mut self, contacts: &mut [Contact], delta_m: Real) {
-        let gap = |c: &Contact| (c.depth_m + delta_m).max(1e-3 * delta_m);
+        let gap = |c: &Contact| c.gap_weight_m(delta_m);
         for c in contacts.iter() {
             if let Some(s) = self.slot(c.feature_a) {
                 *s += gap(c);
@@ -101,14 +103,14 @@ impl SampleSplit {
         if tags.is_empty() {
             return;
         }
-        let gap = |c: &Contact| (c.depth_m + delta_m).max(1e-3 * delta_m);
+        let gap = |c: &Contact| c.gap_weight_m(delta_m);
         let capacity = (2 * tags.len()).next_power_of_two();
         if self.table.len() < capacity {
             self.table.resize(capacity, (Self::EMPTY, 0.0));
         }
         let mask = capacity - 1;
         let find = |table: &[(u64, Real)], key: u64| {
-            let mut slot = (key.wrapping_mul(0x9E37_79B9_7F4A_7C15) >> 20) as usize & mask;
+            let mut slot = hash(key) as usize & mask;
             while table[slot].0 != key && table[slot].0 != Self::EMPTY {
                 slot = (slot + 1) & mask;
             }

@@ -28,7 +28,7 @@
 //! Areas below [`AREA_FLOOR_M2`] (degenerate triangles) are raised to it, so every cell has a
 //! weight. A cell of one contact is that contact; merged cells carry no feature indices.
 
-use haptic_core::{Contact, ContactSet, NO_FEATURE, Real, Vec3};
+use haptic_core::{Contact, ContactSet, NO_FEATURE, Real, Vec3, gap_weight_m};
 
 /// Smallest area a contact weighs for in a merge (m²): 10⁻¹⁸ m², a square nanometre.
 pub const AREA_FLOOR_M2: Real = 1e-18;
@@ -194,7 +194,7 @@ impl Compactor {
                 self.used.push(slot as u32);
             }
             let area = c.area_m2.max(AREA_FLOOR_M2);
-            let w = area * (c.depth_m + delta_m).max(1e-3 * delta_m);
+            let w = area * c.gap_weight_m(delta_m);
             cell.count += 1;
             cell.w += w;
             cell.p_a += c.p_a * w;
@@ -250,7 +250,7 @@ fn cell_key(p: &Vec3, n: &Vec3, lo: &Vec3, inv_h: Real) -> u64 {
 
 /// A multiplicative hash (Fibonacci hashing's constant), high bits folded down.
 #[inline]
-fn hash(key: u64) -> u64 {
+pub(crate) fn hash(key: u64) -> u64 {
     let h = key.wrapping_mul(0x9E37_79B9_7F4A_7C15);
     h ^ (h >> 29)
 }
@@ -262,7 +262,7 @@ fn merged_contact(c: &Cell, delta_m: Real) -> Contact {
     // merged contact deeper than the deepest raw one.
     let d = (c.w_depth / c.w).min(c.deepest_d).max(-delta_m);
     // The floor on `d + δ` is the clustering's (a cell of contacts all at `−δ`).
-    let area_m2 = c.w / (d + delta_m).max(1e-3 * delta_m);
+    let area_m2 = c.w / gap_weight_m(d, delta_m);
     let n = c.n.try_normalize(1e-9 * c.w).unwrap_or(c.deepest_n);
     Contact {
         p_a,

@@ -77,6 +77,14 @@ impl Contact {
         self
     }
 
+    /// The gap `g = d + δ` that weighs this contact in clustering (eq. 28's weights, with its
+    /// area), floored at `10⁻³ δ` so that a contact at exactly `−δ` keeps a small positive
+    /// weight. See [`gap_weight_m`].
+    #[inline]
+    pub fn gap_weight_m(&self, delta_m: Real) -> Real {
+        gap_weight_m(self.depth_m, delta_m)
+    }
+
     /// Checks finiteness, the unit normal and a non-negative area.
     ///
     /// # Errors
@@ -120,6 +128,15 @@ impl Contact {
         }
         Ok(())
     }
+}
+
+/// The gap `g = d + δ` (m) of a contact of depth `depth_m` under the tolerance `delta_m`,
+/// floored at `10⁻³ δ`: the depth term of the clustering's weights (eq. 28), and how
+/// `haptic-collision` shares a surface's area among the contacts that stand for it. One
+/// definition, so that both agree.
+#[inline]
+pub fn gap_weight_m(depth_m: Real, delta_m: Real) -> Real {
+    (depth_m + delta_m).max(1e-3 * delta_m)
 }
 
 /// A reusable buffer of contacts, filled by a [`crate::CollisionBackend`].

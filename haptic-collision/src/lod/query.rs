@@ -149,82 +149,63 @@ const CROSSING_SAMPLE: usize = 63;
 /// Most sample points of a coarse pair (`1 + m · L (L + 1) / 2` for a piece of `m` vertices).
 const MAX_SAMPLES: usize = 1 + MAX_PIECE_VERTICES * SAMPLE_LEVEL * (SAMPLE_LEVEL + 1) / 2;
 
-/// The sample points of a tool piece: the centroid and a regular grid on each triangle of the fan
-/// from the centroid (the points shared by two fan triangles taken once), of level
-/// [`SAMPLE_LEVEL`] or lower so that there are at most `budget` points (at least the centroid and
-/// the vertices). Returns their number.
+/// The sample points of a tool piece and the fraction of its area each stands for: the centroid
+/// and a regular grid on each triangle of the fan from the centroid (the points shared by two
+/// fan triangles taken once), of level [`SAMPLE_LEVEL`] or lower so that there are at most
+/// `budget` points (at least the centroid and the vertices). Returns their number.
+///
+/// A point of fan triangle `i` stands for that triangle's area over its points, a point on the
+/// edge two fan triangles share for the mean of theirs, the centroid for the mean fan triangle;
+/// the fractions add up to 1. Equal shares would over-weigh the narrow fan triangles of an
+/// irregular piece, which get as many points as the wide ones.
 #[inline]
-fn fan_samples(a: &[Vec3], pts: &mut [Vec3; MAX_SAMPLES], budget: u32) -> usize {
+fn fan_samples(
+    a: &[Vec3],
+    pts: &mut [Vec3; MAX_SAMPLES],
+    wts: &mut [Real; MAX_SAMPLES],
+    budget: u32,
+) -> usize {
     let m = a.len();
     let centroid = a.iter().sum::<Vec3>() / m as Real;
     let mut level = SAMPLE_LEVEL;
     while level > 1 && 1 + m * level * (level + 1) / 2 > budget as usize {
         level -= 1;
     }
+    let next = |i: usize| a[if i + 1 == m { 0 } else { i + 1 }];
+    let mut fan = [0.0; MAX_PIECE_VERTICES];
+    for (i, f) in fan[..m].iter_mut().enumerate() {
+        *f = 0.5 * (a[i] - centroid).cross(&(next(i) - centroid)).norm();
+    }
     pts[0] = centroid;
+    wts[0] = fan[..m].iter().sum::<Real>() / m as Real;
     let mut count = 1;
     let step = 1.0 / level as Real;
     for i in 0..m {
-        let (v, next) = (a[i], a[if i + 1 == m { 0 } else { i + 1 }]);
+        let (v, prev) = (a[i], fan[if i == 0 { m - 1 } else { i - 1 }]);
         // Row `r` lies on the segment from `centroid + r (v − c)/L` towards the next vertex; its
-        // last point belongs to the next fan triangle.
+        // first point is on the edge shared with the previous fan triangle, its last point
+        // belongs to the next fan triangle.
         for r in 1..=level {
             let start = centroid + (v - centroid) * (r as Real * step);
             for k in 0..r {
-                pts[count] = start + (next - v) * (k as Real * step);
+                pts[count] = start + (next(i) - v) * (k as Real * step);
+                wts[count] = if k == 0 {
+                    0.5 * (prev + fan[i])
+                } else {
+                    fan[i]
+                };
                 count += 1;
             }
         }
     }
-    count
-}
-
-/// The area each sample of [`fan_samples`] stands for, as a fraction of the piece's (they add
-/// up to 1): a point of fan triangle `i` stands for that triangle's area over its points, a
-/// point on the edge two fan triangles share for the mean of theirs, the centroid for the mean
-/// fan triangle. Equal shares would over-weigh the narrow fan triangles of an irregular piece,
-/// which get as many points as the wide ones. `count` is what [`fan_samples`] returned.
-#[inline]
-fn fan_weights(a: &[Vec3], count: usize, wts: &mut [Real; MAX_SAMPLES]) {
-    let m = a.len();
-    let centroid = a.iter().sum::<Vec3>() / m as Real;
-    let per = (count - 1) / m;
-    let mut fan = [0.0; MAX_PIECE_VERTICES];
-    for i in 0..m {
-        let next = a[if i + 1 == m { 0 } else { i + 1 }];
-        fan[i] = 0.5 * (a[i] - centroid).cross(&(next - centroid)).norm();
-    }
-    let total: Real = fan[..m].iter().sum();
-    if total.is_nan() || total <= 0.0 || per == 0 {
-        wts[..count].fill(1.0 / count as Real);
-        return;
-    }
-    wts[0] = total / m as Real;
-    let mut j = 1;
-    for i in 0..m {
-        let prev = fan[if i == 0 { m - 1 } else { i - 1 }];
-        // Rows r = 1..=L of r points each; the first point of a row lies on the edge from the
-        // centroid to vertex i, shared with the previous fan triangle.
-        let mut r = 1;
-        let mut k = 0;
-        for _ in 0..per {
-            wts[j] = if k == 0 {
-                0.5 * (prev + fan[i])
-            } else {
-                fan[i]
-            };
-            j += 1;
-            k += 1;
-            if k == r {
-                r += 1;
-                k = 0;
-            }
-        }
-    }
     let sum: Real = wts[..count].iter().sum();
-    for w in &mut wts[..count] {
-        *w /= sum;
+    if sum > 0.0 && sum.is_finite() {
+        wts[..count].iter_mut().for_each(|w| *w /= sum);
+    } else {
+        // A degenerate piece (no area): equal shares.
+        wts[..count].fill(1.0 / count as Real);
     }
+    count
 }
 
 /// The obstacle piece in the frame of its plane (`u, w` in the plane, `n` its normal), for the
@@ -285,7 +266,7 @@ impl PlanarPiece {
 ///
 /// Each contact stands for a share of `area_m2`, the surface area below the tool node: the
 /// crossing contact one equal share, every sample generated (within `δ` or not) its part of the
-/// rest by [`fan_weights`].
+/// rest by its weight from [`fan_samples`].
 ///
 /// On the jaws at 2.5 %, these contacts (rather than the pieces' exact closest points and
 /// samples at the vertices alone) bring the error of the clustered wrench from 10 % to about
@@ -307,12 +288,11 @@ fn emit_coarse(
 ) -> Result<Real, LodError> {
     let mut nearest = Real::INFINITY;
     let mut pts = [Vec3::zeros(); MAX_SAMPLES];
-    let count = fan_samples(a, &mut pts, budget);
-    let crossing = crossing_witness(a, na, b, nb);
-    // The crossing contact takes one sample's share; the samples the rest, by `fan_weights`.
-    let share = area_m2 / (count + usize::from(crossing.is_some())) as Real;
     let mut wts = [0.0; MAX_SAMPLES];
-    fan_weights(a, count, &mut wts);
+    let count = fan_samples(a, &mut pts, &mut wts, budget);
+    let crossing = crossing_witness(a, na, b, nb);
+    // The crossing contact takes one sample's share; the samples the rest, by their weights.
+    let share = area_m2 / (count + usize::from(crossing.is_some())) as Real;
     let sampled_m2 = area_m2 - if crossing.is_some() { share } else { 0.0 };
     if let Some(x) = crossing {
         let touching = PairContact {
@@ -483,9 +463,12 @@ pub(crate) fn collide(
         if pc.distance < nearest && pc.depth >= -delta {
             nearest = pc.distance;
             // One sample's share of the tool piece, as `emit_coarse` gives.
-            let samples = fan_samples(&buf[..len], &mut [Vec3::zeros(); MAX_SAMPLES], {
-                a.triangles.saturating_mul(b.triangles)
-            });
+            let samples = fan_samples(
+                &buf[..len],
+                &mut [Vec3::zeros(); MAX_SAMPLES],
+                &mut [0.0; MAX_SAMPLES],
+                a.triangles.saturating_mul(b.triangles),
+            );
             closest = Some((pc, tool.area_of(ia) / samples as Real));
         }
     }
@@ -583,7 +566,8 @@ mod tests {
             let n = n.normalize();
             let a = polygon(m, Vec3::zeros(), n, (0.3, 0.2), phase);
             let mut pts = [Vec3::zeros(); MAX_SAMPLES];
-            let count = fan_samples(&a, &mut pts, u32::MAX);
+            let mut wts = [0.0; MAX_SAMPLES];
+            let count = fan_samples(&a, &mut pts, &mut wts, u32::MAX);
             prop_assert_eq!(count, 1 + m * SAMPLE_LEVEL * (SAMPLE_LEVEL + 1) / 2);
             prop_assert!(pts[0].norm() < 1e-12);
             for (i, p) in pts[..count].iter().enumerate() {
@@ -595,15 +579,13 @@ mod tests {
             for v in &a {
                 prop_assert!(pts[..count].iter().any(|p| (p - v).norm() < 1e-12));
             }
-            // The weights add up to 1, each positive, and follow the fan triangles' areas.
-            let mut wts = [0.0; MAX_SAMPLES];
-            fan_weights(&a, count, &mut wts);
+            // The weights add up to 1, each positive.
             prop_assert!((wts[..count].iter().sum::<Real>() - 1.0).abs() < 1e-12);
             prop_assert!(wts[..count].iter().all(|&w| w > 0.0));
             // A budget lowers the level, down to the centroid and the vertices.
-            prop_assert_eq!(fan_samples(&a, &mut pts, (1 + 3 * m) as u32), 1 + 3 * m);
-            prop_assert_eq!(fan_samples(&a, &mut pts, 3 * m as u32), 1 + m);
-            prop_assert_eq!(fan_samples(&a, &mut pts, 0), 1 + m);
+            prop_assert_eq!(fan_samples(&a, &mut pts, &mut wts, (1 + 3 * m) as u32), 1 + 3 * m);
+            prop_assert_eq!(fan_samples(&a, &mut pts, &mut wts, 3 * m as u32), 1 + m);
+            prop_assert_eq!(fan_samples(&a, &mut pts, &mut wts, 0), 1 + m);
         }
     }
 }
