@@ -174,6 +174,55 @@ fn range(scale: Scale, vals: impl Iterator<Item = f64>) -> (f64, f64) {
     }
 }
 
+/// Where on the plot `v` (within `lo..hi`) falls, from 0 to 1, along an axis of `scale`.
+fn fraction(scale: Scale, lo: f64, hi: f64, v: f64) -> f64 {
+    match scale {
+        Scale::Linear => (v - lo) / (hi - lo),
+        Scale::Log => (v / lo).ln() / (hi / lo).ln(),
+    }
+}
+
+/// The legend's place: of the four corners and the middle of the right side (plotters'
+/// default), the one whose box (about 40 % of the width and 25 % of the height) holds the
+/// fewest data points, so that the legend does not hide them.
+fn legend_position(
+    chart: &Chart<'_>,
+    (x0, x1): (f64, f64),
+    (y0, y1): (f64, f64),
+    series: &[Series],
+) -> SeriesLabelPosition {
+    use SeriesLabelPosition::{LowerLeft, LowerRight, MiddleRight, UpperLeft, UpperRight};
+    // Each candidate's box in plot fractions: (x from, x to, y from, y to), y up.
+    let boxes = [
+        (MiddleRight, (0.6, 1.0, 0.375, 0.625)),
+        (UpperRight, (0.6, 1.0, 0.75, 1.0)),
+        (UpperLeft, (0.0, 0.4, 0.75, 1.0)),
+        (LowerRight, (0.6, 1.0, 0.0, 0.25)),
+        (LowerLeft, (0.0, 0.4, 0.0, 0.25)),
+    ];
+    let points: Vec<(f64, f64)> = series
+        .iter()
+        .flat_map(|s| s.points.iter())
+        .filter(|p| keep(chart.x_scale, p.0) && keep(chart.y_scale, p.1))
+        .map(|p| {
+            (
+                fraction(chart.x_scale, x0, x1, p.0),
+                fraction(chart.y_scale, y0, y1, p.1),
+            )
+        })
+        .collect();
+    let hidden = |b: &(f64, f64, f64, f64)| {
+        points
+            .iter()
+            .filter(|(x, y)| *x >= b.0 && *x <= b.1 && *y >= b.2 && *y <= b.3)
+            .count()
+    };
+    boxes
+        .iter()
+        .min_by_key(|(_, b)| hidden(b))
+        .map_or(MiddleRight, |(pos, _)| pos.clone())
+}
+
 /// Draws `series` into an SVG file at `path`.
 pub fn line_chart(path: &Path, chart: &Chart<'_>, series: &[Series]) -> anyhow::Result<()> {
     let xs = series.iter().flat_map(|s| s.points.iter().map(|p| p.0));
@@ -238,6 +287,7 @@ pub fn line_chart(path: &Path, chart: &Chart<'_>, series: &[Series]) -> anyhow::
                 }
             }
             ctx.configure_series_labels()
+                .position(legend_position(chart, (x0, x1), (y0, y1), series))
                 .background_style(WHITE.mix(0.8))
                 .border_style(BLACK)
                 .draw()
@@ -268,6 +318,44 @@ pub fn line_chart(path: &Path, chart: &Chart<'_>, series: &[Series]) -> anyhow::
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn the_legend_goes_where_it_hides_no_point() {
+        let chart = Chart {
+            title: "t",
+            x_label: "x",
+            y_label: "y",
+            x_scale: Scale::Log,
+            y_scale: Scale::Log,
+        };
+        let pos = |pts: Vec<(f64, f64)>| {
+            let xr = range(Scale::Log, pts.iter().map(|p| p.0));
+            let yr = range(Scale::Log, pts.iter().map(|p| p.1));
+            legend_position(&chart, xr, yr, &[Series::new("s", pts)])
+        };
+        // The jaws' work-precision points: one at the middle of the right side, so the legend
+        // leaves plotters' default place.
+        let jaws = vec![
+            (0.014, 66.0),
+            (0.047, 20.0),
+            (0.033, 16.0),
+            (0.052, 8.2),
+            (0.074, 2.5),
+        ];
+        assert!(!matches!(
+            pos(jaws.clone()),
+            SeriesLabelPosition::MiddleRight
+        ));
+        // Points along the diagonal leave the upper-left and lower-right corners free; the
+        // first of those in the order tried is taken.
+        let diagonal: Vec<(f64, f64)> = (1..=9).map(|k| (k as f64, k as f64)).collect();
+        assert!(matches!(pos(diagonal), SeriesLabelPosition::UpperLeft));
+        // Nothing in the middle of the right side: the default stays.
+        assert!(matches!(
+            pos(vec![(1.0, 1.0), (100.0, 100.0), (1.0, 100.0), (100.0, 1.0)]),
+            SeriesLabelPosition::MiddleRight
+        ));
+    }
 
     #[test]
     fn tick_labels_read_at_a_glance() {

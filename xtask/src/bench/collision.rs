@@ -291,9 +291,9 @@ pub(super) fn work_precision_chart(
         path,
         &Chart {
             title: &format!(
-                "Collision queries, {scene_name}: time against wrench error (threshold 0 is the reference)"
+                "Collision queries, {scene_name}: time against wrench error (reference: every contact at threshold 0)"
             ),
-            x_label: "median wrench error relative to LOD at threshold 0",
+            x_label: "median wrench error relative to the all-pairs reference",
             y_label: "median query time (ms)",
             x_scale: Scale::Log,
             y_scale: Scale::Log,
