@@ -12,13 +12,11 @@
 //! shares it.
 //!
 //! A coarse piece's sample point is the same point for every obstacle piece the tool piece is
-//! paired with, and gives one contact for each it is within `δ` of; [`SampleSplit`] shares the
-//! sample's area among those contacts the same way, so a tool surface weighs the same whether
-//! the walk stopped at coarse pieces or went down to triangles.
+//! paired with, and is within `δ` of each it is near; `lod/coarse.rs` shares the sample's area
+//! among those pieces the same way, so a tool surface weighs the same whether the walk stopped
+//! at coarse pieces or went down to triangles.
 
 use haptic_core::{Contact, NO_FEATURE, Real, Vec3};
-
-use crate::compact::hash;
 
 /// Area of a triangle (m² for vertices in m).
 #[inline]
@@ -77,77 +75,6 @@ impl AreaSplit {
     }
 }
 
-/// The sums of gaps of each coarse sample's contacts, in a hash table reused between queries
-/// (see the module docs). Contacts are tagged during the walk with `(index in the contact set,
-/// sample key)`.
-#[derive(Debug, Clone, Default)]
-pub(crate) struct SampleSplit {
-    /// `(key, Σ g)`; [`SampleSplit::EMPTY`] marks a free slot.
-    table: Vec<(u64, Real)>,
-    /// Slots used by the current call, to free them afterwards.
-    used: Vec<u32>,
-}
-
-impl SampleSplit {
-    const EMPTY: u64 = u64::MAX;
-
-    /// The key of sample `k` (below 64) of tool node `node`.
-    #[inline]
-    pub fn key(node: u32, k: usize) -> u64 {
-        (u64::from(node) << 6) | (k as u64 & 63)
-    }
-
-    /// Shares the area of the tagged contacts among the contacts of the same sample, in
-    /// proportion to their gaps `d + δ`. Untagged contacts keep theirs.
-    pub fn split(&mut self, contacts: &mut [Contact], tags: &[(u32, u64)], delta_m: Real) {
-        if tags.is_empty() {
-            return;
-        }
-        let gap = |c: &Contact| c.gap_weight_m(delta_m);
-        let capacity = (2 * tags.len()).next_power_of_two();
-        if self.table.len() < capacity {
-            self.table.resize(capacity, (Self::EMPTY, 0.0));
-        }
-        let mask = capacity - 1;
-        let find = |table: &[(u64, Real)], key: u64| {
-            let mut slot = hash(key) as usize & mask;
-            while table[slot].0 != key && table[slot].0 != Self::EMPTY {
-                slot = (slot + 1) & mask;
-            }
-            slot
-        };
-        for &(i, key) in tags {
-            let Some(c) = contacts.get(i as usize) else {
-                continue;
-            };
-            let slot = find(&self.table, key);
-            if self.table[slot].0 == Self::EMPTY {
-                self.table[slot].0 = key;
-                self.used.push(slot as u32);
-            }
-            self.table[slot].1 += gap(c);
-        }
-        for &(i, key) in tags {
-            let Some(c) = contacts.get_mut(i as usize) else {
-                continue;
-            };
-            let (g, sum) = (gap(c), self.table[find(&self.table, key)].1);
-            if sum > g {
-                c.area_m2 *= g / sum;
-            }
-        }
-        for &slot in &self.used {
-            self.table[slot as usize] = (Self::EMPTY, 0.0);
-        }
-        self.used.clear();
-    }
-
-    /// Room held (elements), for the tests that check a warm query allocates nothing.
-    pub fn capacity(&self) -> usize {
-        self.table.capacity() + self.used.capacity()
-    }
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -192,27 +119,6 @@ mod tests {
         split.split(&mut cs, DELTA);
         assert!(cs[0].area_m2 > 5.99 && cs[1].area_m2 < 0.01);
         assert!((cs[0].area_m2 + cs[1].area_m2 - 6.0).abs() < 1e-12);
-    }
-
-    #[test]
-    fn a_sample_seen_by_two_obstacle_pieces_is_shared_between_them() {
-        // Sample 3 of node 9 within δ of two obstacle pieces (gaps 1 and 3), sample 4 of one;
-        // an untagged contact keeps its area. Then the table is free for the next call.
-        let mut split = SampleSplit::default();
-        let mut cs = vec![
-            contact(NO_FEATURE, 8.0, 1.0),
-            contact(NO_FEATURE, 8.0, 3.0),
-            contact(NO_FEATURE, 8.0, 2.0),
-            contact(NO_FEATURE, 5.0, 1.0),
-        ];
-        let (a, b) = (SampleSplit::key(9, 3), SampleSplit::key(9, 4));
-        split.split(&mut cs, &[(0, a), (1, a), (2, b)], DELTA);
-        let areas: Vec<Real> = cs.iter().map(|c| c.area_m2).collect();
-        assert_eq!(areas, vec![2.0, 6.0, 8.0, 5.0]);
-        let mut again = vec![contact(NO_FEATURE, 8.0, 1.0)];
-        split.split(&mut again, &[(0, a)], DELTA);
-        assert_eq!(again[0].area_m2, 8.0);
-        assert_ne!(SampleSplit::key(1, 0), SampleSplit::key(0, 63));
     }
 
     #[test]

@@ -14,8 +14,9 @@
 //! farther apart than `δ`; it stops when `s_a + s_b <= ε`, with `ε = error_threshold ×`
 //! [`LodBackend::tool_bounding_radius_m`], and reports contacts from the two pieces (a touching
 //! contact where they cross, and samples spread over the tool piece at their distance to the
-//! obstacle piece); otherwise the node with the larger deviation is split. After the walk, the
-//! coarse pairs that could be closer than the nearest contact reported are searched exactly, so
+//! obstacle piece, written merged: one contact per pair and side, `coarse.rs`); otherwise the
+//! node with the larger deviation is split. After the walk, the coarse pairs that could be
+//! closer than the nearest contact or sample found are searched exactly, so
 //! the reported closest approach is the exact one of the stopped pieces: when the exact surfaces
 //! are apart by `D` with `ε < D < δ − ε`, it is within `ε` of `D`. At `error_threshold = 0` the
 //! walk descends to
@@ -46,6 +47,7 @@
 
 mod build;
 mod cache;
+mod coarse;
 pub(crate) mod query;
 
 use std::time::Instant;
@@ -56,9 +58,10 @@ use haptic_core::{CollisionBackend, ContactSet, CoreError, Pose, QueryParams, Qu
 
 pub use build::Hierarchy;
 pub use cache::{CacheOutcome, FORMAT_VERSION, HierarchyFileError, hierarchy_key};
-use query::{Frames, Scratch, Walk, collide};
+use coarse::{CoarseOutput, emit_coarse_pairs};
+use query::{Frames, Nearest, Scratch, Walk, closest_approaches, collide};
 
-use crate::area::{AreaSplit, SampleSplit};
+use crate::area::AreaSplit;
 use crate::compact::Compactor;
 use crate::mesh::TriMesh;
 
@@ -132,7 +135,7 @@ pub struct LodBackend {
     obstacles: Vec<(Hierarchy, Pose)>,
     scratch: Scratch,
     split: AreaSplit,
-    sample_split: SampleSplit,
+    coarse_output: CoarseOutput,
     compactor: Compactor,
     max_contacts: Option<usize>,
     stats: BuildStats,
@@ -191,6 +194,7 @@ impl LodBackend {
         // the walk never allocates (the list of coarse pairs grows to its largest size once).
         let stack_bound =
             tool.height() + obstacles.iter().map(|(h, _)| h.height()).max().unwrap_or(0) + 2;
+        let obstacle_count = obstacles.len();
         let stats = BuildStats {
             tool: MeshBuildStats::of(&tool),
             obstacles: obstacles
@@ -205,10 +209,11 @@ impl LodBackend {
             obstacles,
             scratch: Scratch {
                 stack: Vec::with_capacity(stack_bound),
-                apart: Vec::new(),
-                tags: Vec::new(),
+                nearest: Vec::with_capacity(obstacle_count),
+                frames: Vec::with_capacity(obstacle_count),
+                ..Scratch::default()
             },
-            sample_split: SampleSplit::default(),
+            coarse_output: CoarseOutput::Regions,
             compactor: Compactor::new(),
             max_contacts: Some(DEFAULT_MAX_CONTACTS),
             stats,
@@ -252,9 +257,8 @@ impl LodBackend {
                 .map(|(h, _)| h.memory_bytes())
                 .sum::<usize>()
             + self.scratch.stack.capacity() * std::mem::size_of::<(u32, u32)>()
-            + self.scratch.apart.capacity() * std::mem::size_of::<(Real, u32, u32)>()
-            + self.scratch.tags.capacity() * std::mem::size_of::<(u32, u64)>()
-            + self.sample_split.capacity() * std::mem::size_of::<(u64, Real)>()
+            + self.scratch.apart.capacity() * std::mem::size_of::<(Real, u32, u32, u32)>()
+            + self.scratch.coarse.memory_bytes()
     }
 
     /// Capacity of the query's scratch buffers, in elements (they are reused between queries;
@@ -262,8 +266,17 @@ impl LodBackend {
     pub fn scratch_capacity(&self) -> usize {
         self.scratch.stack.capacity()
             + self.scratch.apart.capacity()
-            + self.scratch.tags.capacity()
-            + self.sample_split.capacity()
+            + self.scratch.coarse.capacity()
+            + self.scratch.nearest.capacity()
+            + self.scratch.frames.capacity()
+    }
+
+    /// The same back-end writing one contact per coarse sample instead of one per coarse pair
+    /// and side: what the pairs' contacts sum up, for the tests that check they do.
+    #[cfg(test)]
+    pub(crate) fn with_coarse_samples(mut self) -> Self {
+        self.coarse_output = CoarseOutput::Samples;
+        self
     }
 
     /// The tool's hierarchy.
@@ -295,11 +308,15 @@ impl CollisionBackend for LodBackend {
             return Err(LodError::NonFinitePose { what: "tool pose" });
         }
         let mut stats = QueryStats::default();
-        self.scratch.tags.clear();
         let epsilon_m = params.error_threshold * self.tool.radius_about_origin_m();
         let tool_root = self.tool.nodes[0];
         let tool_center_w = tool_pose.transform_point(&tool_root.center);
-        for (obs, pose) in &self.obstacles {
+        self.scratch.frames.clear();
+        self.scratch.nearest.clear();
+        for (o, (obs, pose)) in self.obstacles.iter().enumerate() {
+            let frames = Frames::new(tool_pose, pose);
+            self.scratch.frames.push(frames);
+            self.scratch.nearest.push(Nearest::NONE);
             // Broad phase: root spheres inflated by δ, in the world frame.
             let ob = &obs.nodes[0];
             let reach = tool_root.radius + ob.radius + params.delta_m;
@@ -307,17 +324,42 @@ impl CollisionBackend for LodBackend {
                 continue;
             }
             stats.broad_phase_hit = true;
-            let frames = Frames::new(tool_pose, pose);
             let walk = Walk {
                 frames: &frames,
                 epsilon_m,
                 delta_m: params.delta_m,
             };
-            collide(&self.tool, obs, &walk, &mut self.scratch, out, &mut stats)?;
+            collide(
+                &self.tool,
+                obs,
+                o as u32,
+                &walk,
+                &mut self.scratch,
+                out,
+                &mut stats,
+            )?;
         }
+        // Coarse pairs of all obstacles together, so that a tool sample near two obstacles
+        // shares its area between them.
+        emit_coarse_pairs(
+            &self.tool,
+            &self.obstacles,
+            &self.scratch.frames,
+            params.delta_m,
+            self.coarse_output,
+            &mut self.scratch.coarse,
+            &mut self.scratch.nearest,
+            &mut self.scratch.apart,
+            out,
+        )?;
+        closest_approaches(
+            &self.tool,
+            &self.obstacles,
+            params.delta_m,
+            &mut self.scratch,
+            out,
+        )?;
         self.split.split(out.as_mut_slice(), params.delta_m);
-        self.sample_split
-            .split(out.as_mut_slice(), &self.scratch.tags, params.delta_m);
         if let Some(max) = self.max_contacts {
             let found = self.compactor.compact(out, params.delta_m, max);
             stats.raw_contacts = found as u64;

@@ -1,4 +1,4 @@
-use haptic_core::{CollisionBackend, ContactSet, Pose, QueryParams, Real, Vec3};
+use haptic_core::{CollisionBackend, ContactSet, NO_FEATURE, Pose, QueryParams, Real, Vec3};
 use nalgebra::{UnitQuaternion, Vector3};
 use proptest::prelude::*;
 
@@ -297,6 +297,94 @@ proptest! {
             prop_assert!(c.depth_m >= -delta);
         }
     }
+
+    /// Coarse pairs written as one contact per pair and side keep what the clustering reads of
+    /// their samples: `Σ w`, `Σ w p_a`, `Σ w r_a` and `Σ w d` (`w = a (d + δ)`), in fewer
+    /// contacts, on random scenes of two obstacles at coarse thresholds.
+    #[test]
+    fn coarse_regions_keep_the_samples_sums(
+        seed in 0u64..1_000_000,
+        pose_seed in 0u64..1_000_000,
+        threshold in 0.005f64..0.1,
+    ) {
+        let (tool, obstacles) = scene(seed);
+        let mut rng = Lcg(pose_seed);
+        let pose = random_pose(&mut rng, 0.01);
+        let params = QueryParams::new(0.004, threshold).unwrap();
+        let mut regions = LodBackend::new(&tool, &obstacles).unwrap().with_max_contacts(None);
+        let mut samples = regions.clone().with_coarse_samples();
+        let (mut r, mut s) = (ContactSet::new(), ContactSet::new());
+        regions.query(&pose, &params, &mut r).unwrap();
+        samples.query(&pose, &params, &mut s).unwrap();
+        prop_assert!(r.len() <= s.len(), "{} regions, {} samples", r.len(), s.len());
+        let (mr, ms) = (weighted_sums(&r, 0.004), weighted_sums(&s, 0.004));
+        let scale = ms.0.max(1e-30);
+        prop_assert!((mr.0 - ms.0).abs() <= 1e-9 * scale, "Σw {} vs {}", mr.0, ms.0);
+        prop_assert!((mr.1 - ms.1).norm() <= 1e-9 * scale, "Σw p");
+        prop_assert!((mr.2 - ms.2).norm() <= 1e-9 * scale, "Σw r");
+        prop_assert!((mr.3 - ms.3).abs() <= 1e-9 * scale * 0.004, "Σw d {} vs {}", mr.3, ms.3);
+        for c in r.iter() {
+            prop_assert!(c.validate().is_ok() && c.area_m2 >= 0.0);
+            prop_assert!((c.p_a - c.p_b - c.n * c.depth_m).norm() < 1e-12);
+        }
+    }
+}
+
+/// `Σ w`, `Σ w p_a`, `Σ w r_a`, `Σ w d` of `set`, with the clustering's weights.
+fn weighted_sums(set: &ContactSet, delta: Real) -> (Real, Vec3, Vec3, Real) {
+    let mut m = (0.0, Vec3::zeros(), Vec3::zeros(), 0.0);
+    for c in set.iter() {
+        let w = c.area_m2 * c.gap_weight_m(delta);
+        m.0 += w;
+        m.1 += c.p_a * w;
+        m.2 += c.r_a * w;
+        m.3 += c.depth_m * w;
+    }
+    m
+}
+
+#[test]
+fn a_tool_piece_over_two_obstacles_shares_each_sample_between_them() {
+    // A flat tool square, 0.2 mm over the seam of two flat obstacle squares (two obstacles),
+    // δ = 1 mm: the samples along the seam are within δ of both. The pieces are exact (flat), so
+    // at any threshold the walk stops at coarse pairs.
+    let tool = flat_grid(4, 0.005, false);
+    let obstacles = vec![
+        (
+            flat_grid(4, 0.005, true),
+            Pose::from_position(Vec3::new(-0.005, 0.0, 0.0)),
+        ),
+        (
+            flat_grid(4, 0.005, true),
+            Pose::from_position(Vec3::new(0.005, 0.0, 0.0)),
+        ),
+    ];
+    let pose = Pose::from_position(Vec3::new(0.0, 0.0, 0.0002));
+    let params = QueryParams::new(0.001, 0.05).unwrap();
+    let mut lod = LodBackend::new(&tool, &obstacles)
+        .unwrap()
+        .with_max_contacts(None);
+    let mut samples = lod.clone().with_coarse_samples();
+    let (mut r, mut s) = (ContactSet::new(), ContactSet::new());
+    lod.query(&pose, &params, &mut r).unwrap();
+    samples.query(&pose, &params, &mut s).unwrap();
+    assert!(
+        s.iter().all(|c| c.feature_a == NO_FEATURE),
+        "stopped above the leaves"
+    );
+    // The samples' areas add up to the tool's (1 cm²) once, not twice.
+    let total: Real = s.iter().map(|c| c.area_m2).sum();
+    assert!((total - 1e-4).abs() < 1e-4 * 1e-9, "{total}");
+    // Fewer contacts, the same weight and centroid.
+    assert!(
+        r.len() < s.len(),
+        "{} regions, {} samples",
+        r.len(),
+        s.len()
+    );
+    let (mr, ms) = (weighted_sums(&r, 0.001), weighted_sums(&s, 0.001));
+    assert!((mr.0 - ms.0).abs() < 1e-9 * ms.0);
+    assert!((mr.1 / mr.0 - ms.1 / ms.0).norm() < 1e-12);
 }
 
 #[test]
