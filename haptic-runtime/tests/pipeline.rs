@@ -44,6 +44,7 @@ fn run_spoon_cup(seconds: f64) -> (Summary, Vec<f64>) {
 
 #[test]
 fn spoon_pressed_into_cup_is_held_without_deep_penetration() {
+    let _one_at_a_time = common::one_at_a_time();
     let (s, y) = run_spoon_cup(3.0);
     assert_eq!(s.zero_force_steps, 0);
     // Held against the wall: the hand stops at 2 s and presses on; a second later the spoon
@@ -71,6 +72,7 @@ fn spoon_pressed_into_cup_is_held_without_deep_penetration() {
 
 #[test]
 fn identical_virtual_runs_give_identical_outputs() {
+    let _one_at_a_time = common::one_at_a_time();
     let (a, ya) = run_spoon_cup(1.5);
     let (b, yb) = run_spoon_cup(1.5);
     assert_eq!(ya, yb, "final states differ");
@@ -105,6 +107,7 @@ fn box_pipeline<B: haptic_core::CollisionBackend, D: haptic_core::Device>(
 
 #[test]
 fn box_pressed_on_floor_in_virtual_time_is_supported() {
+    let _one_at_a_time = common::one_at_a_time();
     let mut p = box_pipeline(BoxOnFloor::new(HALF_M), pressing_hand());
     let s = p
         .run_virtual(1.0, ContactLatency::FixedRate { rate_hz: 500.0 }, |_, _| {})
@@ -118,6 +121,7 @@ fn box_pressed_on_floor_in_virtual_time_is_supported() {
 
 #[test]
 fn a_device_that_disconnects_stops_the_run_with_zero_force() {
+    let _one_at_a_time = common::one_at_a_time();
     let device = FaultInjector::new(pressing_hand(), Fault::DisconnectAfter { reads: 300 });
     let mut p = box_pipeline(BoxOnFloor::new(HALF_M), device);
     let err = p
@@ -135,6 +139,7 @@ fn a_device_that_disconnects_stops_the_run_with_zero_force() {
 
 #[test]
 fn nan_from_the_device_sends_zero_force_and_is_counted() {
+    let _one_at_a_time = common::one_at_a_time();
     let device = FaultInjector::new(
         pressing_hand(),
         Fault::NanBurst {
@@ -166,6 +171,7 @@ fn nan_from_the_device_sends_zero_force_and_is_counted() {
 
 #[test]
 fn a_stalled_contact_thread_fades_contact_forces_and_the_haptic_loop_keeps_its_rate() {
+    let _one_at_a_time = common::one_at_a_time();
     let mut backend = Misbehaving::new(BoxOnFloor::new(HALF_M));
     // Stall on the 5th query that finds contacts: the box is on the floor by then.
     backend.stall_at = Some(5);
@@ -191,6 +197,7 @@ fn a_stalled_contact_thread_fades_contact_forces_and_the_haptic_loop_keeps_its_r
 
 #[test]
 fn a_panicking_contact_thread_is_reported_and_contact_forces_fade() {
+    let _one_at_a_time = common::one_at_a_time();
     let mut backend = Misbehaving::new(BoxOnFloor::new(HALF_M));
     backend.panic_at = Some(5);
     let mut p = box_pipeline(backend, pressing_hand());
@@ -203,6 +210,7 @@ fn a_panicking_contact_thread_is_reported_and_contact_forces_fade() {
 
 #[test]
 fn real_time_smoke() {
+    let _one_at_a_time = common::one_at_a_time();
     let mut p = box_pipeline(BoxOnFloor::new(HALF_M), pressing_hand());
     let s = p.run_realtime(0.3, |_| {}).unwrap();
     assert!(s.haptic_rate_hz > 0.0);
@@ -216,6 +224,7 @@ fn real_time_smoke() {
 /// and the controller dissipates it at the port, step by step.
 #[test]
 fn passivity_controller_dissipates_the_energy_the_observer_finds() {
+    let _one_at_a_time = common::one_at_a_time();
     use haptic_dynamics::ForwardEuler;
     let run = |controller: bool| {
         let i = 1e-3 * (2.0 * HALF_M).powi(2) / 6.0;
@@ -262,6 +271,7 @@ fn passivity_controller_dissipates_the_energy_the_observer_finds() {
 
 #[test]
 fn bad_configuration_and_set_up_give_typed_errors() {
+    let _one_at_a_time = common::one_at_a_time();
     let build = |config: PipelineConfig| {
         PipelineBuilder::new(
             box_body(),
@@ -352,6 +362,7 @@ fn bad_configuration_and_set_up_give_typed_errors() {
 
 #[test]
 fn a_scene_with_a_missing_mesh_names_the_field() {
+    let _one_at_a_time = common::one_at_a_time();
     let mut scene = spoon_cup();
     let nowhere = std::env::temp_dir().join("haptic-no-such-folder");
     scene.obstacles[0].mesh = nowhere.join("cup.stl");
@@ -375,6 +386,7 @@ fn a_scene_with_a_missing_mesh_names_the_field() {
 /// more gently than switching to it at once.
 #[test]
 fn a_contact_found_late_is_blended_in_and_does_not_throw_the_tool() {
+    let _one_at_a_time = common::one_at_a_time();
     let rebound = |blend: bool| {
         let light = RigidBody::from_principal(0.01, [4e-6, 4e-6, 4e-6]).unwrap();
         let start = Pose::from_position(Vec3::new(0.0, 0.0, HALF_M + 0.02));

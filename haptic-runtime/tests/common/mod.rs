@@ -3,11 +3,21 @@
 
 #![allow(dead_code)]
 
+use std::sync::{Mutex, MutexGuard};
 use std::time::Duration;
 
 use haptic_core::{CollisionBackend, ContactSet, Pose, QueryParams, QueryStats, Real};
 
 pub use haptic_test_support::box_on_floor::*;
+
+/// Held by each test of a binary whose real-time tests measure rates and time-outs: they run
+/// one at a time, so that they do not compete for this 2-core machine with the binary's other
+/// tests (the test harness runs them on parallel threads; a real-time pipeline spins one core
+/// and needs the other for its contact thread). A test that panicked does not block the rest.
+pub fn one_at_a_time() -> MutexGuard<'static, ()> {
+    static LOCK: Mutex<()> = Mutex::new(());
+    LOCK.lock().unwrap_or_else(|poisoned| poisoned.into_inner())
+}
 
 /// Wraps a back-end: the `stall_at`-th query *that finds contacts* sleeps for `stall`, the
 /// `panic_at`-th panics (counted on contact queries, so that a contact model is in use when the
