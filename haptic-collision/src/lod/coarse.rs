@@ -25,8 +25,7 @@ use crate::geometry::{PairContact, closest_point_on_polygon_2d, crossing_witness
 pub(super) const SAMPLE_LEVEL: usize = 3;
 
 /// Most sample points of a coarse pair (`1 + m · L (L + 1) / 2` for a piece of `m` vertices).
-pub(super) const MAX_SAMPLES: usize =
-    1 + MAX_PIECE_VERTICES * SAMPLE_LEVEL * (SAMPLE_LEVEL + 1) / 2;
+pub(super) const MAX_SAMPLES: usize = sample_count(MAX_PIECE_VERTICES, SAMPLE_LEVEL);
 
 /// The level of [`fan_samples`] for a piece of `m` vertices: [`SAMPLE_LEVEL`], lowered (down to
 /// 1, the centroid and the vertices) so that there are at most `budget` points, the number of
@@ -34,10 +33,16 @@ pub(super) const MAX_SAMPLES: usize =
 #[inline]
 pub(super) fn sample_level(m: usize, budget: u32) -> usize {
     let mut level = SAMPLE_LEVEL;
-    while level > 1 && 1 + m * level * (level + 1) / 2 > budget as usize {
+    while level > 1 && sample_count(m, level) > budget as usize {
         level -= 1;
     }
     level
+}
+
+/// How many points [`fan_samples`] places on a piece of `m` vertices at `level`.
+#[inline]
+pub(super) const fn sample_count(m: usize, level: usize) -> usize {
+    1 + m * level * (level + 1) / 2
 }
 
 /// The sample points of a tool piece and the fraction of its area each stands for: the centroid
@@ -313,25 +318,21 @@ pub(crate) fn emit_coarse_pairs(
     let mut pts = [Vec3::zeros(); MAX_SAMPLES];
     let mut wts = [0.0; MAX_SAMPLES];
     let mut gap_sums = [0.0; MAX_SAMPLES];
-    let mut start = 0;
-    while start < pairs.len() {
-        let ia = pairs[start].ia;
-        let end = start + pairs[start..].iter().take_while(|p| p.ia == ia).count();
-        let node = &pairs[start..end];
+    for node in pairs.chunk_by(|p, q| p.ia == q.ia) {
+        let ia = node[0].ia;
         let a = &tool.nodes[ia as usize];
         let area_m2 = tool.area_of(ia);
         // Where each pair's pieces cross; the crossings of the node share one sample's share
         // each, equally (their gaps are all δ).
         crossing.clear();
-        let mut placed = (u32::MAX, 0, Vec3::zeros());
+        let (mut placed_for, mut len, mut na) = (u32::MAX, 0, Vec3::zeros());
         for p in node {
-            if placed.0 != p.obstacle {
-                let (len, na) = place_piece(tool, a, &frames[p.obstacle as usize], &mut buf);
-                placed = (p.obstacle, len, na);
+            if placed_for != p.obstacle {
+                (len, na) = place_piece(tool, a, &frames[p.obstacle as usize], &mut buf);
+                placed_for = p.obstacle;
             }
             let (obs, _) = &obstacles[p.obstacle as usize];
             let b = &obs.nodes[p.ib as usize];
-            let (len, na) = (placed.1, placed.2);
             crossing.push(crossing_witness(
                 &buf[..len],
                 &na,
@@ -342,22 +343,16 @@ pub(crate) fn emit_coarse_pairs(
         let crossings = crossing.iter().filter(|c| c.is_some()).count().max(1) as Real;
         // Each level's pairs sample the same points; `hits` holds them, pair by pair.
         let mut lstart = 0;
-        while lstart < node.len() {
-            let level = node[lstart].level;
-            let lend = lstart
-                + node[lstart..]
-                    .iter()
-                    .take_while(|p| p.level == level)
-                    .count();
-            let group = &node[lstart..lend];
+        for group in node.chunk_by(|p, q| p.level == q.level) {
+            let level = group[0].level;
             hits.clear();
             let mut count = 0;
-            placed.0 = u32::MAX;
+            placed_for = u32::MAX;
             for p in group {
-                if placed.0 != p.obstacle {
+                if placed_for != p.obstacle {
                     let (len, _) = place_piece(tool, a, &frames[p.obstacle as usize], &mut buf);
                     count = fan_samples(&buf[..len], &mut pts, &mut wts, level as usize);
-                    placed.0 = p.obstacle;
+                    placed_for = p.obstacle;
                 }
                 let (obs, _) = &obstacles[p.obstacle as usize];
                 let b = &obs.nodes[p.ib as usize];
@@ -369,7 +364,8 @@ pub(crate) fn emit_coarse_pairs(
                         distance: Real::INFINITY,
                     };
                     if let Some((c, _)) = piece.closest_within(x, delta_m) {
-                        // Distance from the 3-D points themselves (see `Region::add`'s caller).
+                        // Distance from the 3-D points themselves (see where the normal is
+                        // taken, below).
                         let len = (c - x).norm();
                         if len > 0.0 && len.is_finite() {
                             hit.closest = c;
@@ -421,10 +417,10 @@ pub(crate) fn emit_coarse_pairs(
                     let n = (hit.closest - hit.x) / hit.distance;
                     let g = gap_weight_m(d, delta_m);
                     let a_k = sampled_m2 * wts[k] * (g / gap_sums[k]).min(1.0);
+                    near = near.min(hit.distance);
                     match output {
                         CoarseOutput::Samples => {
                             nearest[p.obstacle as usize].written(hit.distance);
-                            near = near.min(hit.distance);
                             let sample = PairContact {
                                 p_a: hit.x,
                                 p_b: hit.closest,
@@ -436,7 +432,6 @@ pub(crate) fn emit_coarse_pairs(
                         }
                         CoarseOutput::Regions => {
                             nearest[p.obstacle as usize].found(hit.distance, p.ia, p.ib);
-                            near = near.min(hit.distance);
                             let side = usize::from(b.normal.dot(&(hit.x - origin)) < 0.0);
                             sides[side].add(&hit.x, &n, d, a_k, g);
                         }
@@ -451,9 +446,8 @@ pub(crate) fn emit_coarse_pairs(
                     apart.push((p.gap_m, p.obstacle, p.ia, p.ib));
                 }
             }
-            lstart = lend;
+            lstart += group.len();
         }
-        start = end;
     }
     pairs.clear();
     Ok(())

@@ -3,7 +3,7 @@
 use haptic_core::{Contact, ContactSet, Mat3, NO_FEATURE, Pose, QueryStats, Real, Vec3};
 
 use super::build::{Hierarchy, Node};
-use super::coarse::{CoarsePair, CoarseScratch, sample_level};
+use super::coarse::{CoarsePair, CoarseScratch, sample_count, sample_level};
 use super::{LodError, MAX_PIECE_VERTICES};
 use crate::geometry::{PairContact, convex_polygon_pair};
 
@@ -323,10 +323,8 @@ pub(crate) fn closest_approaches(
     // By obstacle, so that each obstacle's closest approach is found in one run.
     apart.sort_unstable_by_key(|&(_, o, ia, ib)| (o, ia, ib));
     let mut buf = [Vec3::zeros(); MAX_PIECE_VERTICES];
-    let mut start = 0;
-    while start < apart.len() {
-        let o = apart[start].1;
-        let end = start + apart[start..].iter().take_while(|e| e.1 == o).count();
+    for run in apart.chunk_by(|x, y| x.1 == y.1) {
+        let o = run[0].1;
         let (obs, _) = &obstacles[o as usize];
         let f = &frames[o as usize];
         let found = nearest[o as usize];
@@ -335,12 +333,11 @@ pub(crate) fn closest_approaches(
             let (len, na) = place_piece(tool, a, f, &mut buf);
             let pc = convex_polygon_pair(&buf[..len], &na, obs.piece_of(b), &b.normal);
             let level = sample_level(len, a.triangles.saturating_mul(b.triangles));
-            let samples = 1 + len * level * (level + 1) / 2;
-            (pc, tool.area_of(ia) / samples as Real)
+            (pc, tool.area_of(ia) / sample_count(len, level) as Real)
         };
         let mut near = found.found_m;
         let mut closest: Option<(PairContact, Real)> = None;
-        for &(gap, _, ia, ib) in &apart[start..end] {
+        for &(gap, _, ia, ib) in run {
             if gap >= near {
                 continue;
             }
@@ -365,7 +362,6 @@ pub(crate) fn closest_approaches(
             f.emit(&pc, NO_FEATURE, NO_FEATURE, area_m2, out)?;
             nearest[o as usize].written(pc.distance);
         }
-        start = end;
     }
     apart.clear();
     Ok(())
