@@ -2,8 +2,10 @@
 
 use crate::body::RigidBody;
 use crate::contact::Contact;
+use crate::contact_frame::{FixedFrame, add_point_wrench_jacobian};
 use crate::error::ContactModelError;
-use crate::math::{Real, StateVector, Vec3, WrenchJacobian, WrenchVector};
+use crate::integrator::JacobianKind;
+use crate::math::{Real, StateVector, Vec3, WrenchJacobian, WrenchVector, skew};
 use crate::state::{Kinematics, ToolState, Wrench};
 use nalgebra::RowSVector;
 
@@ -125,7 +127,16 @@ pub trait ContactModel {
                 .map_err(|e| e.at_index(index))?;
             out.max_depth_m = out.max_depth_m.max(c.depth_m);
             if let Some(t) = ContactTangent::new(c.n, w, jacobian, reach_m) {
-                out.push(t)?;
+                let frame = FixedFrame::new(
+                    &y,
+                    &kin,
+                    body.mass_kg(),
+                    c.r_a,
+                    c.n,
+                    t.lambda0_n,
+                    &t.dlambda_dy,
+                );
+                out.push(ContactTangent { frame, ..t })?;
             }
         }
         Ok(())
@@ -175,6 +186,15 @@ pub enum LinearizationMode {
     Linearized,
     /// `F(y) = F(y₀)` held constant, no Jacobian: the paper's ablation.
     Constant,
+    /// Each contact evaluated at `y` as a spring-damper on its [`FixedFrame`] from `y₀` (its
+    /// point on the tool, its normal, and the normal stiffness and damping it had at `y₀`), with
+    /// the tool's exact kinematics instead of the tangent's first-order ones, and the same bounds
+    /// as [`LinearizationMode::Linearized`] on its normal force; its exact Jacobian enters the
+    /// implicit solve. It agrees with the tangent to first order at `y₀`, but a turned tool
+    /// turns its contact points with it, so a stale model cannot give the tool energy through
+    /// the rotation (`docs/stability.md`). A contact without a frame (a tangent built by hand
+    /// with [`ContactTangent::new`]) is evaluated as in `Linearized`.
+    FixedFrames,
 }
 
 /// One contact's wrench linearized about `y₀` (eq. 42), with the bounds that keep a stale
@@ -218,6 +238,9 @@ pub struct ContactTangent {
     /// Width `ε` of the release band (N): below `λ = ε` the tangent wrench is faded out smoothly
     /// (see [`ContactTangent`]); `ε = ½ k_n δ`.
     pub release_band_n: Real,
+    /// The contact's frame at `y₀`, for [`LinearizationMode::FixedFrames`]; `None` when the
+    /// tangent was built without one.
+    pub frame: Option<FixedFrame>,
 }
 
 impl ContactTangent {
@@ -231,6 +254,7 @@ impl ContactTangent {
             dlambda_dy: RowSVector::zeros(),
             lambda_max_n: 0.0,
             release_band_n: 0.0,
+            frame: None,
         }
     }
 
@@ -254,7 +278,74 @@ impl ContactTangent {
             dlambda_dy,
             lambda_max_n: lambda0_n + k_n * reach_m,
             release_band_n: RELEASE_BAND_FRACTION * k_n * reach_m,
+            frame: None,
         })
+    }
+
+    /// The bounded normal force `φ(λ)` and its derivative `φ'(λ)`: zero where `λ ≤ 0`, the
+    /// smoothstep fade `λ σ(λ/ε)` over the release band, `λ` up to `λ_max`, and `λ_max` beyond.
+    #[inline]
+    fn bounded_normal_force(&self, lambda: Real) -> (Real, Real) {
+        if lambda <= 0.0 {
+            return (0.0, 0.0);
+        }
+        let band = self.release_band_n;
+        if lambda < band {
+            let t = lambda / band;
+            let sigma = t * t * (3.0 - 2.0 * t);
+            return (lambda * sigma, sigma + 6.0 * t * t * (1.0 - t));
+        }
+        if lambda <= self.lambda_max_n {
+            (lambda, 1.0)
+        } else {
+            (self.lambda_max_n, 0.0)
+        }
+    }
+
+    /// The contact's wrench at `y` on its fixed frame ([`LinearizationMode::FixedFrames`]),
+    /// its Jacobian added into `jacobian` when given; the tangent's
+    /// ([`ContactTangent::wrench_at`]) when there is no frame.
+    ///
+    /// `F = −φ(λ(y)) n` and `T = ρ × F`, with `λ(y)` the frame's normal force
+    /// ([`FixedFrame::normal_force`]) and `φ` the same bounds as the tangent's (never pulls,
+    /// smooth release over `ε`, at most `λ_max`). `kind` says whether the Jacobian keeps the
+    /// geometric term `−[F]× ∂ρ/∂q` ([`JacobianKind`]).
+    #[inline]
+    pub fn frame_wrench_at(
+        &self,
+        y: &StateVector,
+        kin: &Kinematics,
+        dy: &StateVector,
+        jacobian: Option<&mut WrenchJacobian>,
+        kind: JacobianKind,
+    ) -> WrenchVector {
+        let Some(frame) = &self.frame else {
+            return self.wrench_at(dy, jacobian);
+        };
+        let (rho, lambda) = frame.normal_force(y, kin);
+        let (phi, dphi) = self.bounded_normal_force(lambda);
+        let force = -phi * frame.n;
+        if let Some(j) = jacobian {
+            if phi > 0.0 {
+                let dforce = -(frame.n * dphi) * frame.normal_force_gradient(kin, &rho);
+                match kind {
+                    // Capped (φ' = 0) the force is constant but its torque still turns with ρ.
+                    JacobianKind::Exact => {
+                        add_point_wrench_jacobian(kin, &frame.r_a, &rho, &force, &dforce, j);
+                    }
+                    // The material part alone: (∂F/∂y, [ρ]× ∂F/∂y).
+                    JacobianKind::Material => {
+                        let dtorque = skew(&rho) * dforce;
+                        let mut top = j.fixed_rows_mut::<3>(0);
+                        top += dforce;
+                        let mut bottom = j.fixed_rows_mut::<3>(3);
+                        bottom += dtorque;
+                    }
+                }
+            }
+        }
+        let torque = rho.cross(&force);
+        WrenchVector::new(force.x, force.y, force.z, torque.x, torque.y, torque.z)
     }
 
     /// The bounded tangent wrench at `dy = y − y₀` and, when `jacobian` is `Some`, its Jacobian
@@ -356,6 +447,29 @@ impl LinearizedContact {
             .any(|t| t.lambda0_n + (t.dlambda_dy * dy)[0] > t.lambda_max_n)
     }
 
+    /// In [`LinearizationMode::FixedFrames`], once per haptic step at the accepted state `y`
+    /// (kinematics `kin`): every contact whose elastic force there exceeds its cap `λ_max`
+    /// yields, its anchor moved so that the elastic force is `λ_max` (see
+    /// [`FixedFrame::yield_to`]). Returns how many yielded.
+    ///
+    /// Without it a contact pressed far beyond its reach (the tool travelled there between two
+    /// updates, or the update arrived late) would push with `λ_max` until the tool had come all
+    /// the way back: the capped spring stores `λ_max` times the excess depth and gives it to the
+    /// tool, which is what threw light tools out of the cup in the stress runs. Having yielded,
+    /// the contact stores at most `λ_max² / 2k_n`, and starts each step at or below its cap,
+    /// where its stiffness is in the Jacobian of the implicit solve.
+    pub fn yield_beyond_reach(&mut self, y: &StateVector, kin: &Kinematics) -> usize {
+        let count = self.contact_count.min(MAX_REPRESENTATIVES);
+        let mut yielded = 0;
+        for t in &mut self.tangents[..count] {
+            let cap = t.lambda_max_n;
+            if let Some(frame) = &mut t.frame {
+                yielded += usize::from(frame.yield_to(y, kin, cap));
+            }
+        }
+        yielded
+    }
+
     /// Adds a tangent (and its wrench to `wrench0`).
     ///
     /// # Errors
@@ -374,74 +488,79 @@ impl LinearizedContact {
         Ok(())
     }
 
-    /// The wrench at `y` (constant time).
+    /// The wrench at `y` (constant time); `kin` is the tool's kinematics at `y`.
     #[inline]
-    pub fn wrench_at(&self, y: &StateVector, mode: LinearizationMode) -> Wrench {
-        self.evaluate(y, mode, 1.0, None)
+    pub fn wrench_at(&self, y: &StateVector, kin: &Kinematics, mode: LinearizationMode) -> Wrench {
+        self.evaluate(y, kin, mode, 1.0, None)
     }
 
-    /// The wrench at `y` and, in [`LinearizationMode::Linearized`], its Jacobian added into
-    /// `jacobian`; in [`LinearizationMode::Constant`] `jacobian` is left as it is.
+    /// The wrench at `y` (kinematics `kin`) and, unless the mode is
+    /// [`LinearizationMode::Constant`], its exact Jacobian added into `jacobian`; in `Constant`
+    /// `jacobian` is left as it is.
     #[inline]
     pub fn add_wrench_and_jacobian(
         &self,
         y: &StateVector,
+        kin: &Kinematics,
         mode: LinearizationMode,
         jacobian: &mut WrenchJacobian,
     ) -> Wrench {
-        self.evaluate(y, mode, 1.0, Some(jacobian))
+        self.evaluate(y, kin, mode, 1.0, Some((jacobian, JacobianKind::Exact)))
     }
 
-    /// The wrench at `y` times `factor` and, when `jacobian` is given (and in
-    /// [`LinearizationMode::Linearized`]), its Jacobian times `factor` added into it: what a
-    /// blend of two models needs, without copying either.
+    /// The wrench at `y` (kinematics `kin`) times `factor` and, when `jacobian` is given (and
+    /// the mode is not [`LinearizationMode::Constant`]), its Jacobian of that kind times
+    /// `factor` added into it: what a blend of two models needs, without copying either.
     #[inline]
     pub fn weighted(
         &self,
         y: &StateVector,
+        kin: &Kinematics,
         mode: LinearizationMode,
         factor: Real,
-        jacobian: Option<&mut WrenchJacobian>,
+        jacobian: Option<(&mut WrenchJacobian, JacobianKind)>,
     ) -> Wrench {
-        self.evaluate(y, mode, factor, jacobian)
+        self.evaluate(y, kin, mode, factor, jacobian)
     }
 
     fn evaluate(
         &self,
         y: &StateVector,
+        kin: &Kinematics,
         mode: LinearizationMode,
         factor: Real,
-        jacobian: Option<&mut WrenchJacobian>,
+        jacobian: Option<(&mut WrenchJacobian, JacobianKind)>,
     ) -> Wrench {
         let scale = self.scale * factor;
         if self.contact_count == 0 {
             return Wrench::zero();
         }
-        match mode {
-            LinearizationMode::Constant => {
-                Wrench::new(self.wrench0.force * scale, self.wrench0.torque * scale)
-            }
-            LinearizationMode::Linearized => {
-                let dy = y - self.y0;
-                let mut sum = WrenchVector::zeros();
-                match jacobian {
-                    None => {
-                        for t in self.tangents() {
-                            sum += t.wrench_at(&dy, None);
-                        }
-                    }
-                    Some(j) => {
-                        let mut jac = WrenchJacobian::zeros();
-                        for t in self.tangents() {
-                            sum += t.wrench_at(&dy, Some(&mut jac));
-                        }
-                        *j += jac * scale;
-                    }
+        if mode == LinearizationMode::Constant {
+            return Wrench::new(self.wrench0.force * scale, self.wrench0.torque * scale);
+        }
+        let dy = y - self.y0;
+        let kind = jacobian.as_ref().map_or(JacobianKind::Exact, |(_, k)| *k);
+        let one = |t: &ContactTangent, j: Option<&mut WrenchJacobian>| match mode {
+            LinearizationMode::FixedFrames => t.frame_wrench_at(y, kin, &dy, j, kind),
+            _ => t.wrench_at(&dy, j),
+        };
+        let mut sum = WrenchVector::zeros();
+        match jacobian {
+            None => {
+                for t in self.tangents() {
+                    sum += one(t, None);
                 }
-                sum *= scale;
-                Wrench::new(sum.fixed_rows::<3>(0).into(), sum.fixed_rows::<3>(3).into())
+            }
+            Some((j, _)) => {
+                let mut jac = WrenchJacobian::zeros();
+                for t in self.tangents() {
+                    sum += one(t, Some(&mut jac));
+                }
+                *j += jac * scale;
             }
         }
+        sum *= scale;
+        Wrench::new(sum.fixed_rows::<3>(0).into(), sum.fixed_rows::<3>(3).into())
     }
 
     /// The same model with every wrench and Jacobian scaled by `s` (used to fade contact forces
@@ -551,14 +670,15 @@ mod tests {
             })
         ));
         let y = StateVector::zeros();
-        let full = lin.wrench_at(&y, LinearizationMode::Linearized);
+        let kin = Kinematics::new(&RigidBody::sphere(0.1, 0.01).unwrap(), &y);
+        let full = lin.wrench_at(&y, &kin, LinearizationMode::Linearized);
         assert!((full.force.z - 0.5 * MAX_REPRESENTATIVES as Real).abs() < 1e-12);
         let half = lin.scaled(0.5);
         let mut j = WrenchJacobian::zeros();
-        let w = half.add_wrench_and_jacobian(&y, LinearizationMode::Linearized, &mut j);
+        let w = half.add_wrench_and_jacobian(&y, &kin, LinearizationMode::Linearized, &mut j);
         assert!((w.force.z - full.force.z / 2.0).abs() < 1e-12);
         assert!((j[(2, 2)] + 500.0 * MAX_REPRESENTATIVES as Real).abs() < 1e-9);
-        let c = half.wrench_at(&y, LinearizationMode::Constant);
+        let c = half.wrench_at(&y, &kin, LinearizationMode::Constant);
         assert!((c.force.z - full.force.z / 2.0).abs() < 1e-12);
     }
 }

@@ -5,6 +5,23 @@ use crate::error::IntegrationError;
 use crate::math::{Real, StateVector, WrenchJacobian};
 use crate::state::{Kinematics, ToolState, Wrench};
 
+/// Which Jacobian of the forces an integrator wants (see [`Integrator::jacobian_kind`]).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum JacobianKind {
+    /// The exact derivative of the wrench: what an iterative solve (full Newton) converges on.
+    #[default]
+    Exact,
+    /// The derivative without the contacts' geometric stiffness: the torque of a contact force
+    /// turning with the tool's point (`−[F]× ∂ρ/∂q`, eqs. 38–41) is left out, so that the
+    /// contact stiffness seen by the solve is the material part alone, negative semidefinite.
+    /// The geometric part is indefinite: on a light tool with a small inertia it can make one
+    /// linearly implicit step turn the tool by a right angle. A one-step linearly implicit
+    /// method (a W-method) stays first-order consistent with any Jacobian, so it loses no order
+    /// with this one. Only models whose Jacobian has such a term (contacts on
+    /// [`crate::LinearizationMode::FixedFrames`]) read it.
+    Material,
+}
+
 /// The external wrench on the tool as a function of its state: coupling, contacts, gravity.
 ///
 /// An integrator calls [`ForceModel::wrench`] at every state it needs (once for forward Euler,
@@ -112,6 +129,14 @@ pub trait Integrator {
     /// Whether `step` asks the force model for its Jacobian (implicit methods).
     fn uses_jacobian(&self) -> bool;
 
+    /// Which Jacobian `step` wants when it asks for one: [`JacobianKind::Exact`] (the default)
+    /// for methods that iterate to convergence, [`JacobianKind::Material`] allowed for one-step
+    /// linearly implicit methods. The caller that owns the force model reads it once and
+    /// configures the model.
+    fn jacobian_kind(&self) -> JacobianKind {
+        JacobianKind::Exact
+    }
+
     /// Advances `state` by `dt_s` seconds.
     ///
     /// # Errors
@@ -133,6 +158,9 @@ impl<I: Integrator + ?Sized> Integrator for &mut I {
     fn uses_jacobian(&self) -> bool {
         (**self).uses_jacobian()
     }
+    fn jacobian_kind(&self) -> JacobianKind {
+        (**self).jacobian_kind()
+    }
     fn step(
         &mut self,
         body: &RigidBody,
@@ -151,6 +179,9 @@ impl<I: Integrator + ?Sized> Integrator for Box<I> {
     }
     fn uses_jacobian(&self) -> bool {
         (**self).uses_jacobian()
+    }
+    fn jacobian_kind(&self) -> JacobianKind {
+        (**self).jacobian_kind()
     }
     fn step(
         &mut self,

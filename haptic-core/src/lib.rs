@@ -109,6 +109,7 @@ pub mod body;
 pub mod check;
 pub mod collision;
 pub mod contact;
+pub mod contact_frame;
 pub mod contact_model;
 pub mod device;
 pub mod error;
@@ -119,12 +120,13 @@ pub mod state;
 pub use body::RigidBody;
 pub use collision::{CollisionBackend, QueryParams, QueryStats};
 pub use contact::{Contact, ContactSet, NO_FEATURE, gap_weight_m};
+pub use contact_frame::FixedFrame;
 pub use contact_model::{
     ContactModel, ContactTangent, LinearizationMode, LinearizedContact, MAX_REPRESENTATIVES,
 };
 pub use device::{Device, DeviceFault, DeviceLimits};
 pub use error::{ContactModelError, CoreError, IntegrationError};
-pub use integrator::{ForceModel, Integrator};
+pub use integrator::{ForceModel, Integrator, JacobianKind};
 pub use math::{
     Mat3, Quat4, Real, StateVector, SystemJacobian, Vec3, WrenchJacobian, WrenchVector,
 };

@@ -34,20 +34,25 @@ fn bench(c: &mut Criterion) {
     model.linearize(&body, &tool, &contacts, &mut lin).unwrap();
     let mut y = tool.to_vector();
     y[0] += 1e-4;
+    let kin = Kinematics::new(&body, &y);
 
-    c.bench_function("linearized_contact/wrench_at", |b| {
-        b.iter(|| black_box(&lin).wrench_at(black_box(&y), LinearizationMode::Linearized))
-    });
-    c.bench_function("linearized_contact/wrench_and_jacobian", |b| {
-        let mut jac = WrenchJacobian::zeros();
-        b.iter(|| {
-            black_box(&lin).add_wrench_and_jacobian(
-                black_box(&y),
-                LinearizationMode::Linearized,
-                &mut jac,
-            )
-        })
-    });
+    for (name, mode) in [
+        ("", LinearizationMode::Linearized),
+        ("fixed_frames/", LinearizationMode::FixedFrames),
+    ] {
+        c.bench_function(&format!("linearized_contact/{name}wrench_at"), |b| {
+            b.iter(|| black_box(&lin).wrench_at(black_box(&y), &kin, mode))
+        });
+        c.bench_function(
+            &format!("linearized_contact/{name}wrench_and_jacobian"),
+            |b| {
+                let mut jac = WrenchJacobian::zeros();
+                b.iter(|| {
+                    black_box(&lin).add_wrench_and_jacobian(black_box(&y), &kin, mode, &mut jac)
+                })
+            },
+        );
+    }
     c.bench_function("penalty/5_representatives_with_jacobian", |b| {
         let kin = Kinematics::new(&body, &y);
         let mut jac = WrenchJacobian::zeros();

@@ -2,8 +2,8 @@
 //! contact + optional gravity.
 
 use haptic_core::{
-    ForceModel, Kinematics, LinearizationMode, LinearizedContact, Real, RigidBody, StateVector,
-    Vec3, Wrench, WrenchJacobian,
+    ForceModel, JacobianKind, Kinematics, LinearizationMode, LinearizedContact, Real, RigidBody,
+    StateVector, Vec3, Wrench, WrenchJacobian,
 };
 
 use crate::coupling::VirtualCoupling;
@@ -76,6 +76,9 @@ pub struct HapticForces {
     pub blend: Real,
     /// How the contact model is used between updates.
     pub mode: LinearizationMode,
+    /// Which contact Jacobian the integrator wants ([`haptic_core::Integrator::jacobian_kind`]);
+    /// the haptic stage sets it from its integrator.
+    pub jacobian_kind: JacobianKind,
     /// Gravitational acceleration (m/s²), `None` for a gravity-compensated tool (the default).
     pub gravity: Option<Vec3>,
 }
@@ -89,20 +92,35 @@ impl HapticForces {
             previous_contact: LinearizedContact::none(),
             blend: 1.0,
             mode: LinearizationMode::Linearized,
+            jacobian_kind: JacobianKind::Exact,
             gravity: None,
         }
     }
 
     /// The contact wrench at `y` (blended), and its Jacobian added into `jacobian` if given.
-    fn contact_wrench(&self, y: &StateVector, mut jacobian: Option<&mut WrenchJacobian>) -> Wrench {
+    fn contact_wrench(
+        &self,
+        y: &StateVector,
+        kin: &Kinematics,
+        mut jacobian: Option<&mut WrenchJacobian>,
+    ) -> Wrench {
         let b = self.blend.clamp(0.0, 1.0);
-        let mut w = self
-            .contact
-            .weighted(y, self.mode, b, jacobian.as_deref_mut());
+        let kind = self.jacobian_kind;
+        let mut w = self.contact.weighted(
+            y,
+            kin,
+            self.mode,
+            b,
+            jacobian.as_deref_mut().map(|j| (j, kind)),
+        );
         if b < 1.0 {
-            w += self
-                .previous_contact
-                .weighted(y, self.mode, 1.0 - b, jacobian);
+            w += self.previous_contact.weighted(
+                y,
+                kin,
+                self.mode,
+                1.0 - b,
+                jacobian.map(|j| (j, kind)),
+            );
         }
         w
     }
@@ -122,7 +140,7 @@ impl ForceModel for HapticForces {
         kin: &Kinematics,
     ) -> Wrench {
         let mut w = self.coupling.evaluate(body, y, kin, None);
-        w += self.contact_wrench(y, None);
+        w += self.contact_wrench(y, kin, None);
         w.force += self.gravity_force(body);
         w
     }
@@ -136,7 +154,7 @@ impl ForceModel for HapticForces {
         jacobian: &mut WrenchJacobian,
     ) -> Wrench {
         let mut w = self.coupling.evaluate(body, y, kin, Some(jacobian));
-        w += self.contact_wrench(y, Some(jacobian));
+        w += self.contact_wrench(y, kin, Some(jacobian));
         w.force += self.gravity_force(body);
         w
     }

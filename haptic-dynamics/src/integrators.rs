@@ -17,8 +17,8 @@ use std::str::FromStr;
 
 use haptic_core::math::{IL, IP, IQ, IX, all_finite};
 use haptic_core::{
-    ForceModel, IntegrationError, Integrator, Kinematics, Real, RigidBody, StateVector,
-    SystemJacobian, ToolState, WrenchJacobian,
+    ForceModel, IntegrationError, Integrator, JacobianKind, Kinematics, Real, RigidBody,
+    StateVector, SystemJacobian, ToolState, WrenchJacobian,
 };
 
 use crate::eom::{quaternion_jacobian_blocks, state_derivative, system_jacobian};
@@ -297,6 +297,10 @@ impl Integrator for Rk4 {
 /// stable for the linear coupling, one force-and-Jacobian evaluation and one 13×13 solve per
 /// step. It is backward Euler's first Newton iterate; [`NewtonBackwardEuler`] iterates to the
 /// true backward Euler step. Named `backward_euler` (or `be`) on command lines and in JSON.
+///
+/// It asks for [`JacobianKind::Material`]: as a one-step linearly implicit method it is
+/// first-order consistent with any `J`, and leaving out the contacts' indefinite geometric
+/// stiffness keeps a light tool from being turned over in one step (`docs/stability.md`).
 #[derive(Debug, Clone, Copy, Default)]
 pub struct LinearizedBackwardEuler;
 
@@ -307,6 +311,10 @@ impl Integrator for LinearizedBackwardEuler {
 
     fn uses_jacobian(&self) -> bool {
         true
+    }
+
+    fn jacobian_kind(&self) -> JacobianKind {
+        JacobianKind::Material
     }
 
     fn step(
@@ -339,7 +347,9 @@ impl Integrator for LinearizedBackwardEuler {
 /// The accuracy reference for [`LinearizedBackwardEuler`] (its first iterate is the semi-implicit step).
 ///
 /// Converged when, for each of the four blocks `x, q, P, L`, the last Newton update is at most
-/// `tolerance` times the block's size (max norm of `y₀` and the iterate).
+/// `tolerance` times the block's size (max norm of `y₀` and the iterate; for the momenta at
+/// least the momentum that moves the pose by its own size in one step, see
+/// `momentum_floors`).
 #[derive(Debug, Clone, Copy)]
 pub struct NewtonBackwardEuler {
     /// Relative tolerance on the Newton update, per block.
@@ -383,12 +393,18 @@ impl NewtonBackwardEuler {
 /// How many times [`NewtonBackwardEuler`] halves a step that fails the monotonicity test.
 const LINE_SEARCH_HALVINGS: i32 = 4;
 
-/// The largest block-relative size of `delta` (blocks x, q, P, L) against `a` and `b`.
-fn block_relative(delta: &StateVector, a: &StateVector, b: &StateVector) -> Real {
+/// The largest block-relative size of `delta` (blocks x, q, P, L) against `a` and `b`, each
+/// block's size at least its `floors` entry.
+fn block_relative(
+    delta: &StateVector,
+    a: &StateVector,
+    b: &StateVector,
+    floors: &[Real; 4],
+) -> Real {
     const BLOCKS: [(usize, usize); 4] = [(0, 3), (3, 7), (7, 10), (10, 13)];
     let mut worst = 0.0_f64;
-    for (lo, hi) in BLOCKS {
-        let (mut d, mut s) = (0.0_f64, 0.0_f64);
+    for ((lo, hi), floor) in BLOCKS.into_iter().zip(floors) {
+        let (mut d, mut s) = (0.0_f64, *floor);
         for i in lo..hi {
             d = d.max(delta[i].abs());
             s = s.max(a[i].abs()).max(b[i].abs());
@@ -398,6 +414,26 @@ fn block_relative(delta: &StateVector, a: &StateVector, b: &StateVector) -> Real
         }
     }
     worst
+}
+
+/// The least sizes of the momentum blocks in [`NewtonBackwardEuler`]'s convergence test: the
+/// momenta whose effect over one step is the size of the pose blocks. `P` is measured against
+/// `m |x| / h` (a momentum that moves the tool by `|x|` in one step) and `L` against
+/// `1 / (h ‖I⁻¹‖)` (one that turns it by a radian, the size of the unit quaternion). Without
+/// them a tool at rest, whose momenta are round-off, can never pass a test relative to the
+/// momenta's own size: a 1.6 g plank at rest on stiff contacts stalled at 1e-7.
+fn momentum_floors(body: &RigidBody, y0: &StateVector, dt_s: Real) -> [Real; 4] {
+    let x_size = y0.fixed_rows::<3>(IX).amax();
+    let inv_inertia = body.inertia_body_inv();
+    let inv_inertia_norm = (0..3)
+        .map(|r| inv_inertia.row(r).iter().map(|v| v.abs()).sum::<Real>())
+        .fold(0.0, Real::max);
+    [
+        0.0,
+        0.0,
+        body.mass_kg() * x_size / dt_s,
+        1.0 / (dt_s * inv_inertia_norm.max(Real::MIN_POSITIVE)),
+    ]
 }
 
 impl Integrator for NewtonBackwardEuler {
@@ -424,10 +460,11 @@ impl Integrator for NewtonBackwardEuler {
         let mut trial_jac = SystemJacobian::zeros();
         let f = derivative_and_jacobian(body, forces, t1, &y, &mut jac)?;
         let mut g = y - y0 - f * dt_s; // residual of y = y0 + h f(y)
+        let floors = momentum_floors(body, &y0, dt_s);
         let mut residual = Real::INFINITY;
         for _ in 0..self.max_iterations {
             let delta = solve_shifted(&jac, dt_s, &(-g))?;
-            residual = block_relative(&delta, &y0, &(y + delta));
+            residual = block_relative(&delta, &y0, &(y + delta), &floors);
             if residual <= self.tolerance {
                 let y1 = y + delta;
                 if !all_finite(&y1) {
@@ -441,7 +478,7 @@ impl Integrator for NewtonBackwardEuler {
             // when its simplified Newton correction `Δ̄ = −J(y)⁻¹ g(y + α Δ)` is smaller than
             // `(1 − α/2) Δ`; otherwise α is halved, at most LINE_SEARCH_HALVINGS times. The
             // test is affine invariant: no scaling of the residual's units is needed.
-            let size = block_relative(&delta, &y0, &y);
+            let size = block_relative(&delta, &y0, &y, &floors);
             let mut alpha = 1.0;
             loop {
                 let trial = y + delta * alpha;
@@ -453,7 +490,7 @@ impl Integrator for NewtonBackwardEuler {
                 let last = alpha < 0.5_f64.powi(LINE_SEARCH_HALVINGS);
                 let monotone = last || {
                     let simplified = solve_shifted(&jac, dt_s, &(-g_trial))?;
-                    block_relative(&simplified, &y0, &y) <= (1.0 - alpha / 2.0) * size
+                    block_relative(&simplified, &y0, &y, &floors) <= (1.0 - alpha / 2.0) * size
                 };
                 if monotone {
                     y = trial;

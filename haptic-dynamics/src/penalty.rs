@@ -27,12 +27,12 @@
 //! The contacts' `n`, `p_b` and `r_a` are constants within one evaluation. With `K` clustered
 //! representatives the translational stiffness `‖∂F/∂x‖ ≤ K k_c` whatever the raw contact count.
 
-use haptic_core::math::{IL, IP, IQ, IX, skew};
+use haptic_core::contact_frame::{add_point_wrench_jacobian, normal_force_gradient};
+use haptic_core::math::IX;
 use haptic_core::{
     Contact, ContactModel, ContactModelError, CoreError, Kinematics, Real, RigidBody, StateVector,
     Vec3, Wrench, WrenchJacobian,
 };
-use nalgebra::SMatrix;
 
 use crate::error::DynamicsError;
 use haptic_core::check;
@@ -169,41 +169,10 @@ impl ContactModel for PenaltyModel {
             let Some(jac) = jacobian.as_deref_mut() else {
                 continue;
             };
-            // ∂λ/∂y (1×13), eqs. 34–37.
-            let rho_x_n = rho.cross(&n);
-            let n_x_omega = n.cross(&kin.omega);
-            let mut dl = SMatrix::<Real, 1, 13>::zeros();
-            // ∂ρ/∂q (3×4), columns R_k r_a.
-            let mut drho_dq = SMatrix::<Real, 3, 4>::zeros();
-            for k in 0..4 {
-                let drho = kin.r_partials[k] * c.r_a;
-                drho_dq.set_column(k, &drho);
-                let domega = kin.omega_q.column(k);
-                dl[IQ + k] =
-                    k_c * n.dot(&drho) + b_c * (rho_x_n.dot(&domega) + n_x_omega.dot(&drho));
-            }
-            for a in 0..3 {
-                dl[IX + a] = k_c * n[a];
-                dl[IP + a] = b_c * inv_m * n[a];
-            }
-            let dl_dl = (kin.inertia_world_inv.transpose() * rho_x_n) * b_c;
-            for a in 0..3 {
-                dl[IL + a] = dl_dl[a];
-            }
-            // ∂F/∂y = −n ∂λ/∂y (3×13); ∂T/∂y = [ρ]× ∂F/∂y − [F]× ∂ρ/∂y (eqs. 38–41).
+            // ∂λ/∂y (1×13), eqs. 34–37; ∂F/∂y = −n ∂λ/∂y and ∂T/∂y (eqs. 38–41).
+            let dl = normal_force_gradient(kin, &c.r_a, &rho, &n, k_c, b_c, inv_m);
             let df = -n * dl;
-            let mut dt = skew(&rho) * df;
-            let f_x = skew(&f);
-            let dt_q = f_x * drho_dq;
-            for k in 0..4 {
-                for a in 0..3 {
-                    dt[(a, IQ + k)] -= dt_q[(a, k)];
-                }
-            }
-            let mut top = jac.fixed_rows_mut::<3>(0);
-            top += df;
-            let mut bottom = jac.fixed_rows_mut::<3>(3);
-            bottom += dt;
+            add_point_wrench_jacobian(kin, &c.r_a, &rho, &f, &df, jac);
         }
         Ok(Wrench::new(force, torque))
     }
@@ -219,7 +188,9 @@ impl ContactModel for PenaltyModel {
 mod tests {
     use super::*;
     use crate::testutil::{arb_body, arb_raw_state, column_check};
-    use haptic_core::{LinearizationMode, LinearizedContact, ToolState};
+    use haptic_core::math::{IL, IP, IQ};
+    use haptic_core::{JacobianKind, LinearizationMode, LinearizedContact, ToolState};
+    use nalgebra::SMatrix;
     use proptest::prelude::*;
 
     const K_C: Real = 2000.0;
@@ -326,7 +297,7 @@ mod tests {
                 let lambda0 = -c.n.dot(&model().evaluate(&body, &y0, &kin0, std::slice::from_ref(c), None).unwrap().force);
                 for e in [0.0, 1e-3, 0.1, 1.0] {
                     let y = y0 + (y1 - y0) * e;
-                    let w = lin.wrench_at(&y, LinearizationMode::Linearized);
+                    let w = lin.wrench_at(&y, &Kinematics::new(&body, &y), LinearizationMode::Linearized);
                     let lambda = -c.n.dot(&w.force);
                     prop_assert!(lambda >= 0.0, "pulls: λ = {lambda}");
                     prop_assert!(lambda <= lambda0.max(0.0) + K_C * DELTA + 1e-9 * (1.0 + lambda0.abs()),
@@ -364,12 +335,159 @@ mod tests {
                     && (lambda - t.lambda_max_n).abs() > reach);
             }
             let mut jac = WrenchJacobian::zeros();
-            let w = lin.add_wrench_and_jacobian(&y, LinearizationMode::Linearized, &mut jac);
-            prop_assert_eq!(w, lin.wrench_at(&y, LinearizationMode::Linearized));
+            let w = lin.add_wrench_and_jacobian(&y, &Kinematics::new(&body, &y), LinearizationMode::Linearized, &mut jac);
+            prop_assert_eq!(w, lin.wrench_at(&y, &Kinematics::new(&body, &y), LinearizationMode::Linearized));
             let r = column_check(&jac, &y, body.mass_kg(), |yy| {
-                lin.wrench_at(yy, LinearizationMode::Linearized).to_vector()
+                lin.wrench_at(yy, &Kinematics::new(&body, yy), LinearizationMode::Linearized).to_vector()
             });
             prop_assert!(r.is_ok(), "{}", r.unwrap_err());
+        }
+
+        /// On its fixed frames the model is the penalty model itself (eq. 33) wherever no
+        /// bound binds: at `y₀` and at any state where every contact is between its release
+        /// band and its cap. The tangent agrees only at `y₀`.
+        #[test]
+        fn fixed_frames_are_the_penalty_model_on_the_contacts_of_y0(
+            body in arb_body(),
+            s0 in arb_raw_state(),
+            s1 in arb_raw_state(),
+            raw in arb_raw_contacts(),
+            e in 0.0..1.0f64,
+        ) {
+            let tool = ToolState::from_vector_normalized(&s0.state_vector(&body)).unwrap();
+            let y0 = tool.to_vector();
+            let contacts = contacts_at(&body, &y0, &raw);
+            let mut lin = LinearizedContact::none();
+            model().linearize(&body, &tool, &contacts, &mut lin).unwrap();
+            let at_y0 = lin.wrench_at(&y0, &Kinematics::new(&body, &y0), LinearizationMode::FixedFrames);
+            let tangent_y0 = lin.wrench_at(&y0, &Kinematics::new(&body, &y0), LinearizationMode::Linearized);
+            prop_assert!((at_y0.to_vector() - tangent_y0.to_vector()).norm() <= 1e-9 * (1.0 + at_y0.to_vector().norm()));
+            let y = y0 + (s1.state_vector(&body) - y0) * (e * e);
+            let kin = Kinematics::new(&body, &y);
+            // Only the contacts that push at y₀ have a frame, in order.
+            let pushing: Vec<Contact> = contacts
+                .iter()
+                .copied()
+                .filter(|c| -c.n.dot(&eval(&body, &y0, std::slice::from_ref(c)).force) > 0.0)
+                .collect();
+            prop_assert_eq!(pushing.len(), lin.contact_count);
+            for (c, t) in pushing.iter().zip(lin.tangents()) {
+                let exact = eval(&body, &y, std::slice::from_ref(c)).to_vector();
+                let lambda = -c.n.dot(&exact.fixed_rows::<3>(0).into_owned());
+                if lambda <= t.release_band_n || lambda >= t.lambda_max_n {
+                    continue; // a bound binds: see fixed_frames_never_pull_and_stay_within_reach
+                }
+                let mut one = LinearizedContact::none();
+                one.y0 = y0;
+                one.push(*t).unwrap();
+                let ff = one.wrench_at(&y, &kin, LinearizationMode::FixedFrames).to_vector();
+                prop_assert!((ff - exact).norm() <= 1e-9 * (1.0 + exact.norm()), "{ff} vs {exact}");
+            }
+        }
+
+        /// The Jacobian of the fixed-frame model (what the implicit solve uses) against central
+        /// differences, at states far from `y₀` too, away from the bounds' kinks.
+        #[test]
+        fn fixed_frames_jacobian_matches_fd(
+            body in arb_body(),
+            s0 in arb_raw_state(),
+            s1 in arb_raw_state(),
+            raw in arb_raw_contacts(),
+            e in 0.0..1.0f64,
+        ) {
+            let tool = ToolState::from_vector_normalized(&s0.state_vector(&body)).unwrap();
+            let y0 = tool.to_vector();
+            let contacts = contacts_at(&body, &y0, &raw);
+            let mut lin = LinearizedContact::none();
+            model().linearize(&body, &tool, &contacts, &mut lin).unwrap();
+            let y = y0 + (s1.state_vector(&body) - y0) * (e * e * 0.3);
+            let kin = Kinematics::new(&body, &y);
+            let scales = crate::testutil::state_scales(&y, body.mass_kg());
+            for t in lin.tangents() {
+                let frame = t.frame.unwrap();
+                let (rho, lambda) = frame.normal_force(&y, &kin);
+                let dl = frame.normal_force_gradient(&kin, &rho);
+                let reach: Real = (0..13).map(|k| (dl[k] * scales[k] * 1e-5).abs()).sum();
+                prop_assume!(lambda.abs() > reach
+                    && (lambda - t.release_band_n).abs() > reach
+                    && (lambda - t.lambda_max_n).abs() > reach);
+            }
+            let mut jac = WrenchJacobian::zeros();
+            let w = lin.add_wrench_and_jacobian(&y, &kin, LinearizationMode::FixedFrames, &mut jac);
+            prop_assert_eq!(w, lin.wrench_at(&y, &kin, LinearizationMode::FixedFrames));
+            let r = column_check(&jac, &y, body.mass_kg(), |yy| {
+                lin.wrench_at(yy, &Kinematics::new(&body, yy), LinearizationMode::FixedFrames).to_vector()
+            });
+            prop_assert!(r.is_ok(), "{}", r.unwrap_err());
+        }
+
+        /// On fixed frames, at any state: each contact pushes along `−n` only, never pulls, and
+        /// never gives more than `λ₀ + k_c δ`; its torque is that force at the tool's point.
+        #[test]
+        fn fixed_frames_never_pull_and_stay_within_reach(
+            body in arb_body(),
+            s0 in arb_raw_state(),
+            s1 in arb_raw_state(),
+            raw in arb_raw_contacts(),
+        ) {
+            let tool = ToolState::from_vector_normalized(&s0.state_vector(&body)).unwrap();
+            let y0 = tool.to_vector();
+            let contacts = contacts_at(&body, &y0, &raw);
+            let mut lin = LinearizedContact::none();
+            model().linearize(&body, &tool, &contacts, &mut lin).unwrap();
+            let y1 = s1.state_vector(&body);
+            for t in lin.tangents() {
+                let mut one = LinearizedContact::none();
+                one.y0 = y0;
+                one.push(*t).unwrap();
+                let frame = t.frame.unwrap();
+                for e in [0.0, 1e-3, 0.1, 1.0] {
+                    let y = y0 + (y1 - y0) * e;
+                    let kin = Kinematics::new(&body, &y);
+                    let w = one.wrench_at(&y, &kin, LinearizationMode::FixedFrames);
+                    let lambda = -frame.n.dot(&w.force);
+                    prop_assert!(lambda >= 0.0, "pulls: λ = {lambda}");
+                    prop_assert!(lambda <= t.lambda0_n + K_C * DELTA + 1e-9 * (1.0 + t.lambda0_n));
+                    prop_assert!(w.force.cross(&frame.n).norm() <= 1e-9 * (1.0 + w.force.norm()));
+                    let rho = kin.r * frame.r_a;
+                    prop_assert!((w.torque - rho.cross(&w.force)).norm() <= 1e-12 * (1.0 + w.torque.norm()));
+                }
+            }
+        }
+
+        /// The material Jacobian (what semi-implicit BE asks for) is the exact one without the
+        /// geometric term: the same force rows, and torque rows `[ρ]× ∂F/∂y`.
+        #[test]
+        fn fixed_frames_material_jacobian_drops_only_the_geometric_term(
+            body in arb_body(),
+            s0 in arb_raw_state(),
+            s1 in arb_raw_state(),
+            raw in arb_raw_contacts(),
+            e in 0.0..1.0f64,
+        ) {
+            let tool = ToolState::from_vector_normalized(&s0.state_vector(&body)).unwrap();
+            let y0 = tool.to_vector();
+            let contacts = contacts_at(&body, &y0, &raw);
+            let mut lin = LinearizedContact::none();
+            model().linearize(&body, &tool, &contacts, &mut lin).unwrap();
+            let y = y0 + (s1.state_vector(&body) - y0) * (e * e * 0.3);
+            let kin = Kinematics::new(&body, &y);
+            for t in lin.tangents() {
+                let mut one = LinearizedContact::none();
+                one.y0 = y0;
+                one.push(*t).unwrap();
+                let (mut exact, mut material) = (WrenchJacobian::zeros(), WrenchJacobian::zeros());
+                let mode = LinearizationMode::FixedFrames;
+                let w = one.weighted(&y, &kin, mode, 1.0, Some((&mut exact, JacobianKind::Exact)));
+                let wm = one.weighted(&y, &kin, mode, 1.0, Some((&mut material, JacobianKind::Material)));
+                prop_assert_eq!(w, wm);
+                let df: SMatrix<Real, 3, 13> = exact.fixed_rows::<3>(0).into_owned();
+                prop_assert_eq!(df, material.fixed_rows::<3>(0).into_owned());
+                let rho = kin.r * t.frame.unwrap().r_a;
+                let dt_material: SMatrix<Real, 3, 13> = material.fixed_rows::<3>(3).into_owned();
+                let expected = haptic_core::math::skew(&rho) * df;
+                prop_assert!((dt_material - expected).norm() <= 1e-12 * (1.0 + expected.norm()));
+            }
         }
 
         /// The normal force never pulls: n·F_k ≤ 0 for every contact, whatever the velocity.
@@ -458,6 +576,78 @@ mod tests {
         ));
     }
 
+    /// A contact pressed far beyond its reach yields (`yield_beyond_reach`): it pushes with its
+    /// cap `λ_max` where it was found, and gives back at most `λ_max² / 2k_c` of work as the
+    /// tool leaves, where the capped spring without yielding gives `λ_max` all the way back.
+    #[test]
+    fn a_contact_pressed_beyond_its_reach_yields_and_gives_back_a_bounded_work() {
+        let body = RigidBody::sphere(0.1, 0.01).unwrap();
+        let tool = ToolState::at_rest(&haptic_core::Pose::identity());
+        let y0 = tool.to_vector();
+        // 0.5 mm deep in a floor below the tool (n = −z, out of the tool), at rest.
+        let c = contacts_at(&body, &y0, &[([0.0, 0.0, -0.01], [0.0, 0.0, -1.0], 0.5e-3)]);
+        let mut lin = LinearizedContact::none();
+        model().linearize(&body, &tool, &c, &mut lin).unwrap();
+        let lambda_max = lin.tangents()[0].lambda_max_n;
+        let cap = K_C * (c[0].depth_m + 2.0 * DELTA); // λ₀ + k_c δ with λ₀ = k_c (d + δ)
+        assert!(
+            (lambda_max - cap).abs() < 1e-9 * cap,
+            "{lambda_max} vs {cap}"
+        );
+        let at = |z: Real| {
+            let mut y = y0;
+            y[2] = z;
+            y
+        };
+        let push = |l: &LinearizedContact, z: Real| {
+            let y = at(z);
+            l.wrench_at(
+                &y,
+                &Kinematics::new(&body, &y),
+                LinearizationMode::FixedFrames,
+            )
+            .force
+            .z
+        };
+        // The tool has travelled 10 mm deeper by the time the model is used: capped.
+        let deep = -10e-3;
+        assert!((push(&lin, deep) - lambda_max).abs() < 1e-9 * lambda_max);
+        // The work given back on the way out, from `deep` to where the contact lets go.
+        let work = |l: &LinearizedContact| {
+            let n = 20_000;
+            let dz = 0.02 / n as Real;
+            (0..n)
+                .map(|i| {
+                    let z = deep + (i as Real + 0.5) * dz;
+                    push(l, z) * dz
+                })
+                .sum::<Real>()
+        };
+        let unyielded = work(&lin);
+        let mut yielded = lin;
+        let y = at(deep);
+        assert_eq!(
+            yielded.yield_beyond_reach(&y, &Kinematics::new(&body, &y)),
+            1
+        );
+        assert!((push(&yielded, deep) - lambda_max).abs() < 1e-9 * lambda_max);
+        // Nothing more to yield where it already has.
+        assert_eq!(
+            yielded.yield_beyond_reach(&y, &Kinematics::new(&body, &y)),
+            0
+        );
+        let bound = lambda_max * lambda_max / (2.0 * K_C);
+        let given = work(&yielded);
+        println!(
+            "work given back: {given:.4} J yielded (bound {bound:.4} J), {unyielded:.4} J not"
+        );
+        assert!(
+            given <= bound * (1.0 + 1e-6) && given > 0.5 * bound,
+            "{given} vs {bound}"
+        );
+        assert!(unyielded > 4.0 * bound, "{unyielded} vs {bound}");
+    }
+
     /// The linearized model (eq. 42) has an error second order in `y − y₀`: the slope of
     /// log(error) against log(‖y − y₀‖) is 2 (for contacts pressed well above the release band
     /// and moves within their reach, where the tangent is not bounded).
@@ -496,7 +686,11 @@ mod tests {
         for e in [1.0, 0.5, 0.25, 0.125, 0.0625, 0.03125] {
             let y = y0 + dir * e;
             let exact = eval(&body, &y, &contacts);
-            let approx = lin.wrench_at(&y, LinearizationMode::Linearized);
+            let approx = lin.wrench_at(
+                &y,
+                &Kinematics::new(&body, &y),
+                LinearizationMode::Linearized,
+            );
             let err = (exact.to_vector() - approx.to_vector()).norm();
             xs.push(Real::ln(e));
             es.push(Real::ln(err));
@@ -516,7 +710,9 @@ mod tests {
         let held = |e: Real| {
             let y = y0 + dir * e;
             (eval(&body, &y, &contacts).to_vector()
-                - lin.wrench_at(&y, LinearizationMode::Constant).to_vector())
+                - lin
+                    .wrench_at(&y, &Kinematics::new(&body, &y), LinearizationMode::Constant)
+                    .to_vector())
             .norm()
         };
         let ratio = held(0.1) / held(0.05);

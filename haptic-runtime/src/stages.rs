@@ -339,6 +339,8 @@ impl<I: Integrator, D: Device> HapticStage<I, D> {
         safety: SafetyConfig,
     ) -> Self {
         let limits = device.limits();
+        let mut forces = forces;
+        forces.jacobian_kind = integrator.jacobian_kind();
         Self {
             integrator,
             device,
@@ -358,6 +360,11 @@ impl<I: Integrator, D: Device> HapticStage<I, D> {
     /// The current tool state.
     pub fn tool(&self) -> &ToolState {
         &self.tool
+    }
+
+    /// The tool's rigid body.
+    pub fn body(&self) -> &RigidBody {
+        &self.body
     }
 
     /// The last wrench sent to the device.
@@ -458,6 +465,13 @@ impl<I: Integrator, D: Device> HapticStage<I, D> {
                 .clamp(0.0, 1.0);
             // Set in place: the model is a few kB, not worth a copy per step.
             self.forces.contact.scale = self.contact.model.scale * fade;
+        }
+        // On fixed frames, contacts pressed beyond their reach yield (a plastic cap).
+        if self.forces.mode == LinearizationMode::FixedFrames {
+            let y = self.tool.to_vector();
+            let kin = haptic_core::Kinematics::new(&self.body, &y);
+            self.forces.contact.yield_beyond_reach(&y, &kin);
+            self.forces.previous_contact.yield_beyond_reach(&y, &kin);
         }
         // 4. Solve for the new state.
         let new_state =

@@ -382,12 +382,13 @@ fn a_scene_with_a_missing_mesh_names_the_field() {
 
 /// A light box driven down into the floor faster than the contact thread can see it coming
 /// (0.2 m/s at 20 Hz: 10 mm per query, ten times δ) is found late, pressed in beyond what its
-/// tangents reach. Blending that late model in (the default) bounces the box off the floor far
-/// more gently than switching to it at once.
+/// model reaches. On tangents, blending that late model in bounces the box off the floor far
+/// more gently than switching to it at once; on fixed frames (the default) the late contacts
+/// yield instead, and the box comes off as gently as with blended tangents.
 #[test]
 fn a_contact_found_late_is_blended_in_and_does_not_throw_the_tool() {
     let _one_at_a_time = common::one_at_a_time();
-    let rebound = |blend: bool| {
+    let rebound = |blend: bool, mode: haptic_core::LinearizationMode| {
         let light = RigidBody::from_principal(0.01, [4e-6, 4e-6, 4e-6]).unwrap();
         let start = Pose::from_position(Vec3::new(0.0, 0.0, HALF_M + 0.02));
         let down = Pose::from_position(Vec3::new(0.0, 0.0, HALF_M - 0.02));
@@ -412,6 +413,7 @@ fn a_contact_found_late_is_blended_in_and_does_not_throw_the_tool() {
                     contact_blend: blend,
                     ..Default::default()
                 },
+                linearization: mode,
                 ..PipelineConfig::default()
             })
             .build()
@@ -423,10 +425,107 @@ fn a_contact_found_late_is_blended_in_and_does_not_throw_the_tool() {
         .unwrap();
         up_speed
     };
-    let (blended, switched) = (rebound(true), rebound(false));
-    println!("rebound speed: blended {blended:.3} m/s, switched at once {switched:.3} m/s");
+    use haptic_core::LinearizationMode::{FixedFrames, Linearized};
+    let (blended, switched) = (rebound(true, Linearized), rebound(false, Linearized));
+    let fixed = rebound(true, FixedFrames);
+    println!(
+        "rebound speed: tangents blended {blended:.3} m/s, switched at once {switched:.3} m/s; \
+         fixed frames {fixed:.3} m/s"
+    );
     assert!(
         blended < 0.4 * switched,
         "blended {blended} m/s vs switched {switched} m/s"
     );
+    assert!(
+        fixed < 0.4 * switched && fixed < 1.25 * blended,
+        "fixed frames {fixed} m/s vs tangents blended {blended} m/s, switched {switched} m/s"
+    );
+}
+
+/// Two runs of the stress corner where stale contact models threw light tools out
+/// (`cargo xtask stress`, seeds 28 and 477; `docs/stability.md`): the spoon at 1.6 g (0.9 g), on
+/// stiff contacts (43.5 kN/m, 45.4 kN/m) updated at 37 Hz (18 Hz), dragged along the cup's wall.
+/// On the paper's tangents, semi-implicit BE resets the tool and full-Newton BE fails steps; on
+/// fixed frames (the default) neither does.
+#[test]
+fn a_light_tool_on_stiff_slow_contacts_is_not_thrown() {
+    let _one_at_a_time = common::one_at_a_time();
+    use haptic_core::LinearizationMode::{FixedFrames, Linearized};
+    use haptic_dynamics::{CouplingParams, NewtonBackwardEuler};
+    let base = spoon_cup().assemble().unwrap();
+    let backend = LodBackend::new(&base.tool_mesh, &base.obstacles).unwrap();
+    // (mass, coupling stiffness, contact stiffness, contact rate, Newton): as the stress run
+    // scales them (`xtask/src/stress.rs`).
+    let run = |(mass_kg, coupling, k_c, rate_hz, newton): (f64, f64, f64, f64, bool), mode| {
+        let d = CouplingParams::default();
+        let ratio = coupling / d.stiffness_n_per_m;
+        let coupling = CouplingParams {
+            stiffness_n_per_m: coupling,
+            damping_ns_per_m: d.damping_ns_per_m * ratio,
+            angular_stiffness_nm_per_rad: d.angular_stiffness_nm_per_rad * ratio,
+            angular_damping_nms_per_rad: d.angular_damping_nms_per_rad * ratio,
+            saturation: None,
+        };
+        let penalty = PenaltyParams::new(
+            k_c,
+            base.penalty.damping_ns_per_m * k_c / base.penalty.stiffness_n_per_m,
+            base.penalty.delta_m,
+        )
+        .unwrap();
+        let start = base.tool_pose;
+        let at = |dx: f64, dy: f64| Pose {
+            position: start.position + Vec3::new(dx, dy, 0.0),
+            orientation: start.orientation,
+        };
+        let hand = ScriptedDevice::from_waypoints(
+            vec![
+                haptic_device::Waypoint::new(0.0, at(0.0, 0.0)),
+                haptic_device::Waypoint::new(0.6, at(0.0, -0.07)),
+                haptic_device::Waypoint::new(1.2, at(0.04, -0.07)),
+                haptic_device::Waypoint::new(1.6, at(-0.04, -0.07)),
+                haptic_device::Waypoint::new(2.0, at(0.04, -0.07)),
+            ],
+            base.limits,
+        )
+        .unwrap();
+        let mut config = base.config;
+        config.query = haptic_core::QueryParams::new(base.penalty.delta_m, 0.025).unwrap();
+        config.linearization = mode;
+        let builder = PipelineBuilder::new(base.body.with_mass(mass_kg).unwrap(), start)
+            .backend(backend.clone())
+            .contact_model(PenaltyModel::new(penalty).unwrap())
+            .device(hand)
+            .coupling(coupling)
+            .config(config);
+        let latency = ContactLatency::FixedRate { rate_hz };
+        let stats = if newton {
+            let mut p = builder
+                .integrator(NewtonBackwardEuler::default())
+                .build()
+                .unwrap();
+            p.run_virtual(2.0, latency, |_, _| {}).unwrap();
+            p.haptic().stats.clone()
+        } else {
+            let mut p = builder.integrator(LinearizedBackwardEuler).build().unwrap();
+            p.run_virtual(2.0, latency, |_, _| {}).unwrap();
+            p.haptic().stats.clone()
+        };
+        (stats.divergences, stats.solver_failures)
+    };
+    for case in [
+        (1.62e-3, 74.0, 43_530.0, 37.1, false),
+        (0.93e-3, 217.3, 45_372.0, 18.05, true),
+    ] {
+        let (tangent_resets, tangent_failures) = run(case, Linearized);
+        let (resets, failures) = run(case, FixedFrames);
+        println!(
+            "{case:?}: tangents {tangent_resets} resets, {tangent_failures} failed steps; \
+             fixed frames {resets}, {failures}"
+        );
+        assert!(
+            tangent_resets + tangent_failures > 0,
+            "the corner no longer fails on tangents: pick another"
+        );
+        assert_eq!((resets, failures), (0, 0), "{case:?} on fixed frames");
+    }
 }

@@ -62,7 +62,8 @@ impl PyScene {
         coupling_stiffness_n_per_m = 200.0, coupling_damping_ns_per_m = None,
         angular_stiffness_nm_per_rad = 0.6, angular_damping_nms_per_rad = None,
         contact_stiffness_n_per_m = 2000.0, contact_damping_ns_per_m = None, delta_m = 1e-3,
-        clusters = 5, error_threshold = 0.0, linearized = true, haptic_rate_hz = 1000.0,
+        clusters = 5, error_threshold = 0.0, linearized = true, fixed_frames = true,
+        haptic_rate_hz = 1000.0,
         contact_rate_hz = None, waypoints = None, max_force_n = 10.0, max_torque_nm = 1.0,
         workspace_half_m = 0.5, time_budget_s = None))]
     fn from_parts(
@@ -82,6 +83,7 @@ impl PyScene {
         clusters: usize,
         error_threshold: f64,
         linearized: bool,
+        fixed_frames: bool,
         haptic_rate_hz: f64,
         contact_rate_hz: Option<f64>,
         waypoints: Option<&Bound<'_, PyAny>>,
@@ -153,6 +155,7 @@ impl PyScene {
                 clusters,
                 error_threshold,
                 linearized,
+                fixed_frames,
                 time_budget_s,
             },
             rates: RateSpec {

@@ -140,6 +140,7 @@ impl<I: Integrator, B: CollisionBackend, C: ContactModel, D: Device> PipelineBui
             previous_contact: haptic_core::LinearizedContact::none(),
             blend: 1.0,
             mode: config.linearization,
+            jacobian_kind: haptic_core::Integrator::jacobian_kind(&self.integrator),
             gravity: config.gravity,
         };
         if config.cluster.max_clusters > haptic_core::MAX_REPRESENTATIVES {

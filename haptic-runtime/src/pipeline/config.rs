@@ -16,7 +16,8 @@ pub struct PipelineConfig {
     pub query: QueryParams,
     /// Clustering parameters (K, iteration cap).
     pub cluster: ClusterParams,
-    /// Linearized contact model, or forces held constant between updates (the ablation).
+    /// How the haptic thread uses the contact model between updates: on the representatives'
+    /// fixed frames (the default), the paper's tangents, or held constant (the ablation).
     pub linearization: LinearizationMode,
     /// Gravity (m/s²), `None` for a gravity-compensated tool (the default).
     pub gravity: Option<Vec3>,
@@ -39,7 +40,7 @@ impl Default for PipelineConfig {
                 error_threshold: 0.0,
             },
             cluster: ClusterParams::default(),
-            linearization: LinearizationMode::Linearized,
+            linearization: LinearizationMode::FixedFrames,
             gravity: None,
             safety: SafetyConfig::default(),
             realtime_scheduling: true,

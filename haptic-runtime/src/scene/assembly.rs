@@ -142,10 +142,10 @@ impl Scene {
                 max_clusters: self.contact.clusters,
                 ..Default::default()
             },
-            linearization: if self.contact.linearized {
-                haptic_core::LinearizationMode::Linearized
-            } else {
-                haptic_core::LinearizationMode::Constant
+            linearization: match (self.contact.linearized, self.contact.fixed_frames) {
+                (false, _) => haptic_core::LinearizationMode::Constant,
+                (true, true) => haptic_core::LinearizationMode::FixedFrames,
+                (true, false) => haptic_core::LinearizationMode::Linearized,
             },
             query_budget: match self.contact.time_budget_s {
                 Some(b) => Some(

@@ -22,6 +22,7 @@
 //! clusters = 5
 //! error_threshold = 0.0
 //! linearized = true
+//! fixed_frames = true
 //!
 //! [rates]
 //! haptic_hz = 1000.0

@@ -155,8 +155,13 @@ pub struct ContactSpec {
     pub clusters: usize,
     /// Error threshold of the multiresolution collision detection (fraction of the radius).
     pub error_threshold: Real,
-    /// Linearized contact model (true) or forces held constant between updates.
+    /// A contact model that follows the tool between updates (true) or forces held constant
+    /// between updates (false: the paper's ablation).
     pub linearized: bool,
+    /// With `linearized`: evaluate each representative on its frame held fixed, with the tool's
+    /// exact kinematics (true, the default), or on its tangent at the queried state (false:
+    /// the paper's eq. 42). See `haptic_core::LinearizationMode`.
+    pub fixed_frames: bool,
     /// A time budget per contact update (s): the error threshold is then picked update by
     /// update to fit it, and `error_threshold` is not used (see `haptic_runtime::budget`).
     pub time_budget_s: Option<Real>,
@@ -171,6 +176,7 @@ impl Default for ContactSpec {
             clusters: 5,
             error_threshold: 0.0,
             linearized: true,
+            fixed_frames: true,
             time_budget_s: None,
         }
     }

@@ -494,6 +494,7 @@ class Scene:
         clusters: int = 5,
         error_threshold: float = 0.0,
         linearized: bool = True,
+        fixed_frames: bool = True,
         haptic_rate_hz: float = 1000.0,
         contact_rate_hz: float | None = None,
         waypoints: tuple[ArrayLike, ArrayLike] | None = None,
@@ -519,7 +520,11 @@ class Scene:
             clusters: K, the most representatives (1 to the linearized model's capacity).
             error_threshold: the multiresolution error threshold (fraction of the tool's
                 bounding radius).
-            linearized: the linearized contact model (True) or forces held between updates.
+            linearized: a contact model that follows the tool between updates (True) or
+                forces held between updates (False, the paper's ablation).
+            fixed_frames: with ``linearized``, each representative evaluated on its frame held
+                fixed with the tool's exact kinematics (True), or on its tangent (False, the
+                paper's eq. 42).
             haptic_rate_hz: the haptic loop's rate.
             contact_rate_hz: the contact updates' rate in virtual time (``None``: as fast as
                 it runs).

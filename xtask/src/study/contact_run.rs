@@ -35,6 +35,7 @@ impl<I: Integrator, D: Device> RunObserver<I, D> for Collector<'_> {
     fn haptic_step(&mut self, t: Real, h: &HapticStage<I, D>) {
         let tool = h.tool();
         let y = tool.to_vector();
+        let kin = haptic_core::Kinematics::new(h.body(), &y);
         let contact = h.contact();
         if contact.raw_contact_count > 0 && self.first_contact_s.is_none() {
             self.first_contact_s = Some(t);
@@ -50,9 +51,13 @@ impl<I: Integrator, D: Device> RunObserver<I, D> for Collector<'_> {
         series
             .deviation_m
             .push(h.forces().coupling.deviation(tool).translation_m);
-        series
-            .contact_force_n
-            .push(h.forces().contact.wrench_at(&y, self.mode).force.norm());
+        series.contact_force_n.push(
+            h.forces()
+                .contact
+                .wrench_at(&y, &kin, self.mode)
+                .force
+                .norm(),
+        );
         series.coupling_force_n.push(h.last_wrench().force.norm());
         if let Some(r) = &mut self.recorder {
             RunObserver::<I, D>::haptic_step(r, t, h);
