@@ -299,6 +299,41 @@ def test_scene_from_parts_box_pressed_on_a_slab(make_box):
     assert run.summary["max_force_n"] <= 10.0 and run.summary["raw_contact_count_max"] > 0
 
 
+def test_scene_from_parts_contact_models_between_updates(make_box):
+    """`fixed_frames` (the default) and the paper's tangents both hold the cube on the slab with
+    contact updates at 300 Hz, and are different models; `linearized=False` holds the forces
+    between updates, and the cube bounces."""
+    tool = haptic.Mesh(*make_box([-0.02] * 3, [0.02] * 3))
+    slab = haptic.Mesh(*make_box([-0.2, -0.2, -0.02], [0.2, 0.2, 0.0]))
+    start = np.array([0.0, 0.0, 0.03, 1.0, 0.0, 0.0, 0.0])
+    pressed = start.copy()
+    pressed[2] = 0.0
+    common = dict(
+        tool=tool, mass_kg=0.05, tool_pose=start, obstacles=[(slab, [0, 0, 0, 1, 0, 0, 0])],
+        waypoints=([0.0, 0.2, 0.6], np.vstack([start, start, pressed])), contact_rate_hz=300.0,
+    )
+    runs = {
+        name: haptic.run_virtual(haptic.Scene.from_parts(**common, **kw), 0.8)
+        for name, kw in {
+            "fixed_frames": {},
+            "tangents": {"fixed_frames": False},
+            "constant": {"linearized": False},
+        }.items()
+    }
+    default = haptic.run_virtual(haptic.Scene.from_parts(**common, fixed_frames=True), 0.8)
+    assert np.array_equal(default.tool_pose, runs["fixed_frames"].tool_pose)
+    late = runs["tangents"].t > 0.7
+    for name in ("fixed_frames", "tangents"):
+        run = runs[name]
+        assert run.summary["zero_force_steps"] == 0, name
+        assert run.tool_pose[late, 2].min() > 0.02 - 2e-3, name  # held up by the slab
+        assert run.force[late, 2].mean() > 1.0, name
+    assert not np.array_equal(runs["fixed_frames"].tool_pose, runs["tangents"].tool_pose)
+    # Held constant between updates, the cube is not held (the paper's ablation).
+    heights = {name: np.ptp(run.tool_pose[late, 2]) for name, run in runs.items()}
+    assert heights["constant"] > 10 * max(heights["fixed_frames"], heights["tangents"]), heights
+
+
 def test_scene_errors(tmp_path, mesh_paths, make_box):
     with pytest.raises(haptic.SceneError):
         haptic.Scene.load(tmp_path / "missing.toml")

@@ -142,11 +142,7 @@ impl Scene {
                 max_clusters: self.contact.clusters,
                 ..Default::default()
             },
-            linearization: match (self.contact.linearized, self.contact.fixed_frames) {
-                (false, _) => haptic_core::LinearizationMode::Constant,
-                (true, true) => haptic_core::LinearizationMode::FixedFrames,
-                (true, false) => haptic_core::LinearizationMode::Linearized,
-            },
+            linearization: self.contact.linearization(),
             query_budget: match self.contact.time_budget_s {
                 Some(b) => Some(
                     crate::QueryBudget::new(b)

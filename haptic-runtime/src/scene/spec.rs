@@ -182,6 +182,20 @@ impl Default for ContactSpec {
     }
 }
 
+impl ContactSpec {
+    /// How the haptic thread uses the contact model between updates: `linearized = false` holds
+    /// the forces constant; otherwise fixed frames, or the paper's tangents with
+    /// `fixed_frames = false`.
+    pub fn linearization(&self) -> haptic_core::LinearizationMode {
+        use haptic_core::LinearizationMode::{Constant, FixedFrames, Linearized};
+        match (self.linearized, self.fixed_frames) {
+            (false, _) => Constant,
+            (true, true) => FixedFrames,
+            (true, false) => Linearized,
+        }
+    }
+}
+
 /// Rates.
 #[derive(Debug, Clone, Copy, PartialEq, Deserialize)]
 #[serde(deny_unknown_fields, default)]

@@ -20,6 +20,23 @@ fn minimal_scene_takes_defaults_and_resolves_paths() {
 }
 
 #[test]
+fn the_contact_model_between_updates_is_fixed_frames_unless_asked() {
+    use haptic_core::LinearizationMode::{Constant, FixedFrames, Linearized};
+    let with = |contact: &str| {
+        let text = format!("{MINIMAL}\n[contact]\n{contact}\n");
+        Scene::from_toml_str(&text, Path::new("."))
+            .unwrap()
+            .contact
+            .linearization()
+    };
+    assert_eq!(with(""), FixedFrames);
+    assert_eq!(with("fixed_frames = false"), Linearized);
+    assert_eq!(with("linearized = false"), Constant);
+    assert_eq!(with("linearized = false\nfixed_frames = false"), Constant);
+    assert_eq!(crate::PipelineConfig::default().linearization, FixedFrames);
+}
+
+#[test]
 fn unknown_field_is_named() {
     let text = "[tool]\nmesh = \"a.stl\"\nmass_kg = 0.01\nmass_g = 3\n";
     match Scene::from_toml_str(text, Path::new(".")) {
