@@ -257,6 +257,11 @@ pub struct HapticStats {
     pub solver_failures: u64,
     /// Steps with a stale (faded) contact model.
     pub stale_steps: u64,
+    /// Contact updates that arrived late: at the tool's state when they were received, some
+    /// contact was pressed beyond its reach (the tool had travelled more than `δ` into a surface
+    /// since the query). The sign that `δ` or the contact rate is too small for the motion
+    /// (`docs/stability.md`).
+    pub late_contact_updates: u64,
     /// Tool resets after the coupling deviation passed the divergence bound.
     pub divergences: u64,
     /// Largest `| |q| - 1 |` of the tool state seen.
@@ -403,6 +408,7 @@ impl<I: Integrator, D: Device> HapticStage<I, D> {
             self.contact = *update;
             self.contact_received_s = now_s;
             let late = update.model.beyond_reach(&self.tool.to_vector());
+            self.stats.late_contact_updates += u64::from(late);
             if self.safety.contact_blend && late && self.contact_blend_s > 0.0 {
                 self.forces.previous_contact = self.forces.contact;
                 self.forces.blend = 0.0;

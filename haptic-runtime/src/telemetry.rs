@@ -300,6 +300,10 @@ pub struct Summary {
     pub contact_errors: u64,
     /// Steps during which the contact model was older than the timeout and faded.
     pub contact_stale_steps: u64,
+    /// Contact updates that arrived late: the tool had travelled more than `δ` into a surface
+    /// between the query and the update (raise `δ` or the contact rate; `docs/stability.md`).
+    #[serde(default)]
+    pub late_contact_updates: u64,
     /// Whether the contact thread panicked (the haptic thread went on without it).
     pub contact_thread_panicked: bool,
     /// Median error threshold of the updates with contacts (fraction of the tool's bounding

@@ -47,6 +47,8 @@ fn spoon_pressed_into_cup_is_held_without_deep_penetration() {
     let _one_at_a_time = common::one_at_a_time();
     let (s, y) = run_spoon_cup(3.0);
     assert_eq!(s.zero_force_steps, 0);
+    // The scene's δ covers the spoon's travel between updates.
+    assert_eq!(s.late_contact_updates, 0, "{:?}", s.incidents);
     // Held against the wall: the hand stops at 2 s and presses on; a second later the spoon
     // creeps along the wall (1.3 cm/s measured) but neither bounces off nor slips away
     // (y = (x, q, P, L), the spoon weighs 20 g; the hand reached 3.5 cm/s on its way).
@@ -419,10 +421,18 @@ fn a_contact_found_late_is_blended_in_and_does_not_throw_the_tool() {
             .build()
             .unwrap();
         let mut up_speed: f64 = 0.0;
-        p.run_virtual(0.6, ContactLatency::FixedRate { rate_hz: 20.0 }, |_, h| {
-            up_speed = up_speed.max(h.tool().p.z / 0.01);
-        })
-        .unwrap();
+        let summary = p
+            .run_virtual(0.6, ContactLatency::FixedRate { rate_hz: 20.0 }, |_, h| {
+                up_speed = up_speed.max(h.tool().p.z / 0.01);
+            })
+            .unwrap();
+        // Found late, and the summary says so.
+        assert!(summary.late_contact_updates > 0);
+        assert!(
+            summary.incidents.iter().any(|i| i.contains("arrived late")),
+            "{:?}",
+            summary.incidents
+        );
         up_speed
     };
     use haptic_core::LinearizationMode::{FixedFrames, Linearized};

@@ -199,6 +199,15 @@ impl<I: Integrator, B: CollisionBackend, C: ContactModel, D: Device> Pipeline<I,
                 h.stale_steps
             ));
         }
+        if h.late_contact_updates > 0 {
+            incidents.push(format!(
+                "{} of {} contact updates arrived late: the tool moved more than delta = {:.2} mm \
+                 into a surface between query and update; raise delta or the contact rate",
+                h.late_contact_updates,
+                c.updates,
+                self.config.query.delta_m * 1e3
+            ));
+        }
         if h.divergences > 0 {
             incidents.push(format!(
                 "tool diverged {} times and was put back at the handle",
@@ -246,6 +255,7 @@ impl<I: Integrator, B: CollisionBackend, C: ContactModel, D: Device> Pipeline<I,
             solver_failures: h.solver_failures,
             contact_errors: c.errors,
             contact_stale_steps: h.stale_steps,
+            late_contact_updates: h.late_contact_updates,
             contact_thread_panicked: c.panicked.is_some(),
             error_threshold_median: c.threshold_quantile(0.5),
             error_threshold_max: c.threshold_quantile(1.0),
