@@ -182,7 +182,6 @@ impl<M: ContactModel + ?Sized> ContactModel for Box<M> {
 pub enum LinearizationMode {
     /// Each contact's wrench `W_k(y₀) + ∂W_k/∂y (y − y₀)`, bounded (see [`ContactTangent`]), and
     /// its Jacobian enters the implicit solve (the paper's method, eq. 42).
-    #[default]
     Linearized,
     /// `F(y) = F(y₀)` held constant, no Jacobian: the paper's ablation.
     Constant,
@@ -193,7 +192,10 @@ pub enum LinearizationMode {
     /// implicit solve. It agrees with the tangent to first order at `y₀`, but a turned tool
     /// turns its contact points with it, so a stale model cannot give the tool energy through
     /// the rotation (`docs/stability.md`). A contact without a frame (a tangent built by hand
-    /// with [`ContactTangent::new`]) is evaluated as in `Linearized`.
+    /// with [`ContactTangent::new`]) is evaluated as in `Linearized`. The haptic stage also
+    /// lets contacts pressed beyond their cap yield, once per step
+    /// ([`LinearizedContact::yield_beyond_reach`]). The default.
+    #[default]
     FixedFrames,
 }
 

@@ -84,7 +84,9 @@ pub struct HapticForces {
 }
 
 impl HapticForces {
-    /// Coupling only: no contact, linearized mode, no gravity.
+    /// Coupling only: no contact, no gravity, and the paper's tangents
+    /// ([`LinearizationMode::Linearized`]: a model set by hand is then affine in the state, as
+    /// the work-precision study wants); the runtime sets the mode from its configuration.
     pub fn new(coupling: VirtualCoupling) -> Self {
         Self {
             coupling,
