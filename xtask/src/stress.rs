@@ -410,6 +410,16 @@ pub fn run(args: &StressArgs) -> anyhow::Result<()> {
         unstable.len()
     );
     let map = stability_map(&outcomes);
+    let corner = Corner::of(&outcomes);
+    println!(
+        "stiff, slow-update corner (contact rate < {:.0} Hz, k_c > {:.0} kN/m, implicit integrators, smooth and NaN-burst motions): {}/{} stable, {} ejected (reset, or coupling past 10 cm), {} with a failed step",
+        CORNER_RATE_HZ,
+        CORNER_STIFFNESS_N_PER_M / 1e3,
+        corner.stable,
+        corner.runs,
+        corner.ejected,
+        corner.failed_steps
+    );
     let report = StressReport {
         steps_total,
         configurations: outcomes.len(),
@@ -419,6 +429,7 @@ pub fn run(args: &StressArgs) -> anyhow::Result<()> {
         divergent_runs: divergent,
         integrators: per_integrator,
         stability_map: &map.1,
+        corner,
         passivity_controller: PassivityReport {
             rerun_unstable_smooth_runs: unstable.len(),
             stable_with_controller: pc_stable,
@@ -487,6 +498,49 @@ fn stability_map(outcomes: &[Outcome]) -> (String, Vec<MapCell>) {
     (md, cells)
 }
 
+/// Contact rates below this (Hz), with [`CORNER_STIFFNESS_N_PER_M`], make the corner where stale
+/// contact models used to throw light tools out (`docs/stability.md`).
+const CORNER_RATE_HZ: Real = 100.0;
+/// Contact stiffnesses above this (N/m) make the corner, with [`CORNER_RATE_HZ`].
+const CORNER_STIFFNESS_N_PER_M: Real = 15_000.0;
+
+/// The stiff, slow-update corner of the map: implicit integrators, smooth and NaN-burst
+/// motions, contact rate below [`CORNER_RATE_HZ`], contact stiffness above
+/// [`CORNER_STIFFNESS_N_PER_M`].
+#[derive(Serialize)]
+struct Corner {
+    runs: usize,
+    stable: usize,
+    /// Runs with a tool reset or the coupling stretched past 10 cm.
+    ejected: usize,
+    /// Runs with an integration step that failed.
+    failed_steps: usize,
+}
+
+impl Corner {
+    fn of(outcomes: &[Outcome]) -> Self {
+        let runs: Vec<&Outcome> = outcomes
+            .iter()
+            .filter(|o| {
+                let c = &o.config;
+                matches!(c.integrator, "backward_euler" | "newton_backward_euler")
+                    && matches!(c.motion, Motion::Smooth | Motion::NanBurst)
+                    && c.contact_rate_hz < CORNER_RATE_HZ
+                    && c.contact_n_per_m > CORNER_STIFFNESS_N_PER_M
+            })
+            .collect();
+        Self {
+            runs: runs.len(),
+            stable: runs.iter().filter(|o| o.stable).count(),
+            ejected: runs
+                .iter()
+                .filter(|o| o.resets > 0 || o.max_coupling_deviation_m >= 0.1)
+                .count(),
+            failed_steps: runs.iter().filter(|o| o.solver_failures > 0).count(),
+        }
+    }
+}
+
 /// Per-integrator totals of `stress.json`.
 #[derive(Serialize)]
 struct IntegratorTotals {
@@ -528,6 +582,7 @@ struct StressReport<'a> {
     divergent_runs: usize,
     integrators: std::collections::BTreeMap<&'static str, IntegratorTotals>,
     stability_map: &'a [MapCell],
+    corner: Corner,
     passivity_controller: PassivityReport,
     runs: &'a [Outcome],
 }
