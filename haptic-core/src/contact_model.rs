@@ -359,29 +359,20 @@ impl ContactTangent {
         jacobian: Option<&mut WrenchJacobian>,
     ) -> WrenchVector {
         let lambda = self.lambda0_n + (self.dlambda_dy * dy)[0];
-        if lambda <= 0.0 {
+        let (phi, dphi) = self.bounded_normal_force(lambda);
+        if phi == 0.0 {
             return WrenchVector::zeros(); // separated: it never pulls
         }
+        // The tangent wrench scaled by s = φ(λ)/λ (1 between the band and the cap), with
+        // ∂s/∂y = (φ' − s)/λ ∂λ/∂y.
         let w = self.wrench0 + self.jacobian * dy;
-        let band = self.release_band_n;
-        if lambda < band {
-            let t = lambda / band;
-            let sigma = t * t * (3.0 - 2.0 * t);
-            if let Some(j) = jacobian {
-                *j += self.jacobian * sigma + (w * (6.0 * t * (1.0 - t) / band)) * self.dlambda_dy;
-            }
-            return w * sigma;
-        }
-        if lambda <= self.lambda_max_n {
-            if let Some(j) = jacobian {
-                *j += self.jacobian;
-            }
-            return w;
-        }
-        // Capped: s(y) w(y) with s = λ_max / λ(y), ∂s/∂y = −(s/λ) ∂λ/∂y.
-        let s = self.lambda_max_n / lambda;
+        let s = phi / lambda;
+        let ds = (dphi - s) / lambda;
         if let Some(j) = jacobian {
-            *j += self.jacobian * s - (w * (s / lambda)) * self.dlambda_dy;
+            *j += self.jacobian * s;
+            if ds != 0.0 {
+                *j += (w * ds) * self.dlambda_dy;
+            }
         }
         w * s
     }

@@ -189,7 +189,9 @@ mod tests {
     use super::*;
     use crate::testutil::{arb_body, arb_raw_state, column_check};
     use haptic_core::math::{IL, IP, IQ};
-    use haptic_core::{JacobianKind, LinearizationMode, LinearizedContact, ToolState};
+    use haptic_core::{
+        ContactTangent, JacobianKind, LinearizationMode, LinearizedContact, ToolState,
+    };
     use nalgebra::SMatrix;
     use proptest::prelude::*;
 
@@ -217,6 +219,28 @@ mod tests {
                 Contact::new(p_a, r_a, p_a - *d * n, n, *d).unwrap()
             })
             .collect()
+    }
+
+    /// The state of `s0` (quaternion normalised), its contacts `raw`, and their model linearized
+    /// there (`lin.y0` is the state).
+    fn linearized_at(
+        body: &RigidBody,
+        s0: &crate::testutil::RawState,
+        raw: &[([f64; 3], [f64; 3], f64)],
+    ) -> (Vec<Contact>, LinearizedContact) {
+        let tool = ToolState::from_vector_normalized(&s0.state_vector(body)).unwrap();
+        let contacts = contacts_at(body, &tool.to_vector(), raw);
+        let mut lin = LinearizedContact::none();
+        model().linearize(body, &tool, &contacts, &mut lin).unwrap();
+        (contacts, lin)
+    }
+
+    /// A model of `lin`'s tangent `t` alone.
+    fn alone(lin: &LinearizedContact, t: &ContactTangent) -> LinearizedContact {
+        let mut one = LinearizedContact::none();
+        one.y0 = lin.y0;
+        one.push(*t).unwrap();
+        one
     }
 
     fn eval(body: &RigidBody, y: &StateVector, contacts: &[Contact]) -> Wrench {
@@ -317,11 +341,8 @@ mod tests {
             raw in arb_raw_contacts(),
             e in 0.0..1.0f64,
         ) {
-            let tool = ToolState::from_vector_normalized(&s0.state_vector(&body)).unwrap();
-            let y0 = tool.to_vector();
-            let contacts = contacts_at(&body, &y0, &raw);
-            let mut lin = LinearizedContact::none();
-            model().linearize(&body, &tool, &contacts, &mut lin).unwrap();
+            let (_, lin) = linearized_at(&body, &s0, &raw);
+            let y0 = lin.y0;
             let y = y0 + (s1.state_vector(&body) - y0) * (e * e * 0.01);
             // Stay away from the kinks (λ = 0, ε and λ_max) by a margin the FD steps cannot cross.
             let dy = y - y0;
@@ -354,11 +375,8 @@ mod tests {
             raw in arb_raw_contacts(),
             e in 0.0..1.0f64,
         ) {
-            let tool = ToolState::from_vector_normalized(&s0.state_vector(&body)).unwrap();
-            let y0 = tool.to_vector();
-            let contacts = contacts_at(&body, &y0, &raw);
-            let mut lin = LinearizedContact::none();
-            model().linearize(&body, &tool, &contacts, &mut lin).unwrap();
+            let (contacts, lin) = linearized_at(&body, &s0, &raw);
+            let y0 = lin.y0;
             let at_y0 = lin.wrench_at(&y0, &Kinematics::new(&body, &y0), LinearizationMode::FixedFrames);
             let tangent_y0 = lin.wrench_at(&y0, &Kinematics::new(&body, &y0), LinearizationMode::Linearized);
             prop_assert!((at_y0.to_vector() - tangent_y0.to_vector()).norm() <= 1e-9 * (1.0 + at_y0.to_vector().norm()));
@@ -377,9 +395,7 @@ mod tests {
                 if lambda <= t.release_band_n || lambda >= t.lambda_max_n {
                     continue; // a bound binds: see fixed_frames_never_pull_and_stay_within_reach
                 }
-                let mut one = LinearizedContact::none();
-                one.y0 = y0;
-                one.push(*t).unwrap();
+                let one = alone(&lin, t);
                 let ff = one.wrench_at(&y, &kin, LinearizationMode::FixedFrames).to_vector();
                 prop_assert!((ff - exact).norm() <= 1e-9 * (1.0 + exact.norm()), "{ff} vs {exact}");
             }
@@ -395,11 +411,8 @@ mod tests {
             raw in arb_raw_contacts(),
             e in 0.0..1.0f64,
         ) {
-            let tool = ToolState::from_vector_normalized(&s0.state_vector(&body)).unwrap();
-            let y0 = tool.to_vector();
-            let contacts = contacts_at(&body, &y0, &raw);
-            let mut lin = LinearizedContact::none();
-            model().linearize(&body, &tool, &contacts, &mut lin).unwrap();
+            let (_, lin) = linearized_at(&body, &s0, &raw);
+            let y0 = lin.y0;
             let y = y0 + (s1.state_vector(&body) - y0) * (e * e * 0.3);
             let kin = Kinematics::new(&body, &y);
             let scales = crate::testutil::state_scales(&y, body.mass_kg());
@@ -430,16 +443,11 @@ mod tests {
             s1 in arb_raw_state(),
             raw in arb_raw_contacts(),
         ) {
-            let tool = ToolState::from_vector_normalized(&s0.state_vector(&body)).unwrap();
-            let y0 = tool.to_vector();
-            let contacts = contacts_at(&body, &y0, &raw);
-            let mut lin = LinearizedContact::none();
-            model().linearize(&body, &tool, &contacts, &mut lin).unwrap();
+            let (_, lin) = linearized_at(&body, &s0, &raw);
+            let y0 = lin.y0;
             let y1 = s1.state_vector(&body);
             for t in lin.tangents() {
-                let mut one = LinearizedContact::none();
-                one.y0 = y0;
-                one.push(*t).unwrap();
+                let one = alone(&lin, t);
                 let frame = t.frame.unwrap();
                 for e in [0.0, 1e-3, 0.1, 1.0] {
                     let y = y0 + (y1 - y0) * e;
@@ -465,17 +473,12 @@ mod tests {
             raw in arb_raw_contacts(),
             e in 0.0..1.0f64,
         ) {
-            let tool = ToolState::from_vector_normalized(&s0.state_vector(&body)).unwrap();
-            let y0 = tool.to_vector();
-            let contacts = contacts_at(&body, &y0, &raw);
-            let mut lin = LinearizedContact::none();
-            model().linearize(&body, &tool, &contacts, &mut lin).unwrap();
+            let (_, lin) = linearized_at(&body, &s0, &raw);
+            let y0 = lin.y0;
             let y = y0 + (s1.state_vector(&body) - y0) * (e * e * 0.3);
             let kin = Kinematics::new(&body, &y);
             for t in lin.tangents() {
-                let mut one = LinearizedContact::none();
-                one.y0 = y0;
-                one.push(*t).unwrap();
+                let one = alone(&lin, t);
                 let (mut exact, mut material) = (WrenchJacobian::zeros(), WrenchJacobian::zeros());
                 let mode = LinearizationMode::FixedFrames;
                 let w = one.weighted(&y, &kin, mode, 1.0, Some((&mut exact, JacobianKind::Exact)));

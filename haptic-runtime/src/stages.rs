@@ -473,7 +473,9 @@ impl<I: Integrator, D: Device> HapticStage<I, D> {
             self.forces.contact.scale = self.contact.model.scale * fade;
         }
         // On fixed frames, contacts pressed beyond their reach yield (a plastic cap).
-        if self.forces.mode == LinearizationMode::FixedFrames {
+        if self.forces.mode == LinearizationMode::FixedFrames
+            && !(self.forces.contact.is_empty() && self.forces.previous_contact.is_empty())
+        {
             let y = self.tool.to_vector();
             let kin = haptic_core::Kinematics::new(&self.body, &y);
             self.forces.contact.yield_beyond_reach(&y, &kin);
