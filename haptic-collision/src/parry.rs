@@ -403,7 +403,7 @@ mod tests {
 
         /// Two bumpy spheres apart by less than δ: parry without `FIX_INTERNAL_EDGES` gives
         /// the reference's minimum distance and its set of triangle pairs closer than δ; with
-        /// it, the same minimum distance and a subset of the pairs.
+        /// it, the same minimum distance up to its bent normals, and a subset of the pairs.
         #[test]
         fn parry_agrees_with_the_reference_when_apart(
             seed in 0u64..500,
@@ -449,7 +449,12 @@ mod tests {
 
             let mut fixed = ParryBackend::new(&a, &obstacles).unwrap();
             fixed.query(&pose, &params, &mut pout).unwrap();
-            prop_assert!((min_distance(&pout) - g).abs() < 1e-9);
+            // Where the closest features meet at an internal edge, `FIX_INTERNAL_EDGES` bends
+            // the normal and the distance is measured along it (module docs): the same
+            // minimum up to that bend, 3.5e-4 relative in the one case of 400 seeds where it
+            // showed (kept in `proptest-regressions/parry.txt`), exact in the others.
+            let fixed_g = min_distance(&pout);
+            prop_assert!((fixed_g - g).abs() <= 1e-3 * g, "fixed: {} vs {}", fixed_g, g);
             prop_assert!(pairs(&pout, DELTA + 1e-9).is_subset(&exact_loose));
         }
     }
