@@ -392,6 +392,18 @@ pub fn point_polygon_distance(p: &Vec3, poly: &[Vec3], n: &Vec3) -> Real {
     (closest_point_on_polygon(p, poly, n) - p).norm()
 }
 
+/// Two unit vectors `u, w` with `u × w = n`.
+pub(crate) fn plane_basis(n: &Vec3) -> (Vec3, Vec3) {
+    let helper = if n.x.abs() < 0.6 {
+        Vec3::x()
+    } else {
+        Vec3::y()
+    };
+    let u = n.cross(&helper).normalize();
+    let w = n.cross(&u);
+    (u, w)
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

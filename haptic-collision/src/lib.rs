@@ -33,6 +33,7 @@ pub mod mesh;
 #[cfg(feature = "parry")]
 pub mod parry;
 pub mod reference;
+mod slab;
 
 pub use lod::{DEFAULT_MAX_CONTACTS, LodBackend};
 pub use mesh::{

@@ -318,7 +318,9 @@ mod tests {
     use proptest::prelude::*;
 
     use super::{ParryBackend, ParryError, ParryOptions};
+    use crate::geometry::{triangle_normal, triangle_pair};
     use crate::lod::testmesh::{bumpy_sphere, cuboid};
+    use crate::mesh::TriMesh;
     use crate::reference::ReferenceBackend;
 
     const DELTA: Real = 2e-3;
@@ -328,6 +330,26 @@ mod tests {
             .filter(|c| -c.depth_m < below)
             .map(|c| (c.feature_a, c.feature_b))
             .collect()
+    }
+
+    /// The (tool, obstacle) triangle pairs closer than `below`, the tool at `pose`.
+    fn pairs_within(a: &TriMesh, b: &TriMesh, pose: &Pose, below: Real) -> BTreeSet<(u32, u32)> {
+        let tri = |m: &TriMesh, t: usize, place: &dyn Fn(&Vec3) -> Vec3| {
+            let v = m.triangle(t).map(|v| place(&v));
+            let n = triangle_normal(&v).unwrap_or_else(Vec3::z);
+            (v, n)
+        };
+        let mut out = BTreeSet::new();
+        for ta in 0..a.triangles().len() {
+            let (va, na) = tri(a, ta, &|v| pose.transform_point(v));
+            for tb in 0..b.triangles().len() {
+                let (vb, nb) = tri(b, tb, &|v| *v);
+                if triangle_pair(&va, &na, &vb, &nb).distance < below {
+                    out.insert((ta as u32, tb as u32));
+                }
+            }
+        }
+        out
     }
 
     fn min_distance(s: &ContactSet) -> Real {
@@ -435,8 +457,10 @@ mod tests {
             reference.query(&pose, &params, &mut out).unwrap();
             let g = min_distance(&out);
             prop_assume!(g > 0.0 && g < DELTA);
-            let exact = pairs(&out, DELTA - 1e-9);
-            let exact_loose = pairs(&out, DELTA + 1e-9);
+            // The triangle pairs within δ, by brute force (the reference writes one contact per
+            // pair with a part over the other, not one per pair within δ).
+            let exact = pairs_within(&a, &b, &pose, DELTA - 1e-9);
+            let exact_loose = pairs_within(&a, &b, &pose, DELTA + 1e-9);
 
             let obstacles = [(b.clone(), Pose::identity())];
             let plain = ParryOptions { fix_internal_edges: false };

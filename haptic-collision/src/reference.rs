@@ -1,23 +1,24 @@
 //! A brute-force reference back-end: every tool triangle against every obstacle triangle, with
-//! the same exact primitive ([`crate::geometry::triangle_pair`]) and the same contact output as
-//! [`crate::lod::LodBackend`] at error threshold 0 with every contact written
-//! (`with_max_contacts(None)`), areas included. Quadratic in the triangle counts: for tests
+//! the same contact per pair ([`crate::slab`]) and the same closest approach
+//! ([`crate::geometry::triangle_pair`]) as [`crate::lod::LodBackend`] at error threshold 0 with
+//! every contact written (`with_max_contacts(None)`). Quadratic in the triangle counts: for tests
 //! on small meshes only.
 
 use haptic_core::{CollisionBackend, ContactSet, Pose, QueryParams, QueryStats, Real, Vec3};
 
-use crate::area::{AreaSplit, triangle_area};
-use crate::geometry::{triangle_normal, triangle_pair};
+use haptic_core::NO_FEATURE;
+
+use crate::geometry::{PairContact, triangle_normal, triangle_pair};
 use crate::lod::LodError;
-use crate::lod::query::Frames;
+use crate::lod::query::{Frames, touching_if_crossing};
 use crate::mesh::TriMesh;
+use crate::slab::{HeightOffset, pair_region};
 
 /// Triangles of one mesh with their unit normals (mesh frame).
 #[derive(Debug, Clone)]
 struct Soup {
     tris: Vec<[Vec3; 3]>,
     normals: Vec<Vec3>,
-    areas_m2: Vec<Real>,
 }
 
 impl Soup {
@@ -29,12 +30,7 @@ impl Soup {
             .iter()
             .map(|t| triangle_normal(t).unwrap_or_else(Vec3::z))
             .collect();
-        let areas_m2 = tris.iter().map(triangle_area).collect();
-        Self {
-            tris,
-            normals,
-            areas_m2,
-        }
+        Self { tris, normals }
     }
 }
 
@@ -95,22 +91,41 @@ impl CollisionBackend for ReferenceBackend {
             broad_phase_hit: true,
             ..QueryStats::default()
         };
+        let delta = params.delta_m;
         for (obs, pose) in &self.obstacles {
             let frames = Frames::new(tool_pose, pose);
+            // The smallest distance written, and the exact closest approach within δ.
+            let mut written = Real::INFINITY;
+            let mut closest: Option<PairContact> = None;
             for (ta, (tri_a, n_a)) in self.tool.tris.iter().zip(&self.tool.normals).enumerate() {
                 let a = tri_a.map(|v| frames.point(&v));
                 let na = frames.rot * n_a;
                 for (tb, (b, nb)) in obs.tris.iter().zip(&obs.normals).enumerate() {
                     stats.primitive_pairs_tested += 1;
+                    let regions = pair_region(&a, b, nb, delta, HeightOffset::NONE);
+                    if let Some(r) = regions.region {
+                        let pc = PairContact {
+                            p_a: r.centroid,
+                            p_b: r.centroid + nb * r.depth_m,
+                            n: -nb,
+                            depth: r.depth_m,
+                            distance: -r.depth_m,
+                        };
+                        frames.emit(&pc, ta as u32, tb as u32, r.area_m2, out)?;
+                        written = written.min(pc.distance);
+                    }
                     let pc = triangle_pair(&a, &na, b, nb);
-                    if pc.depth >= -params.delta_m {
-                        let area = self.tool.areas_m2[ta];
-                        frames.emit(&pc, ta as u32, tb as u32, area, out)?;
+                    if pc.depth >= -delta && closest.is_none_or(|c| pc.distance < c.distance) {
+                        closest = Some(pc);
                     }
                 }
             }
+            if let Some(pc) = closest
+                && pc.distance < written
+            {
+                frames.emit(&touching_if_crossing(pc), NO_FEATURE, NO_FEATURE, 0.0, out)?;
+            }
         }
-        AreaSplit::new(self.tool.tris.len()).split(out.as_mut_slice(), params.delta_m);
         Ok(stats)
     }
 }

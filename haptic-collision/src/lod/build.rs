@@ -17,7 +17,10 @@ use haptic_core::{Real, Vec3};
 use rayon::prelude::*;
 
 use super::MAX_PIECE_VERTICES;
-use crate::geometry::{closest_point_on_polygon_2d, point_polygon_distance, triangle_normal};
+use super::moments::{SurfaceMoments, surface_moments};
+use crate::geometry::{
+    closest_point_on_polygon_2d, plane_basis, point_polygon_distance, triangle_normal,
+};
 use crate::mesh::TriMesh;
 
 /// Marks "no right child" (a leaf).
@@ -50,26 +53,6 @@ pub(crate) struct Node {
     pub triangles: u32,
 }
 
-/// The surface area of the triangles below each node: a leaf's piece is its triangle, and the
-/// children of node `i` (`i + 1` and `right`) come after it, so one pass from the end suffices.
-fn node_areas(nodes: &[Node], piece: &[Vec3]) -> Vec<Real> {
-    let mut area = vec![0.0; nodes.len()];
-    for i in (0..nodes.len()).rev() {
-        let n = &nodes[i];
-        area[i] = if n.is_leaf() {
-            let s = n.piece_start as usize;
-            match piece.get(s..s + n.piece_len as usize) {
-                Some([a, b, c]) => 0.5 * (b - a).cross(&(c - a)).norm(),
-                _ => 0.0,
-            }
-        } else {
-            let (l, r) = (i + 1, n.right as usize);
-            area.get(l).copied().unwrap_or(0.0) + area.get(r).copied().unwrap_or(0.0)
-        };
-    }
-    area
-}
-
 impl Node {
     /// Whether the node is a leaf (one triangle).
     #[inline]
@@ -84,9 +67,9 @@ impl Node {
 pub struct Hierarchy {
     pub(crate) nodes: Vec<Node>,
     pub(crate) piece: Vec<Vec3>,
-    /// Surface area (m²) of the triangles below each node, by node index (derived from the
-    /// leaves' triangles, so not saved with the hierarchy).
-    pub(crate) area_m2: Vec<Real>,
+    /// Area and height moments of the surface below each node, by node index (derived from
+    /// the leaves' triangles, so not saved with the hierarchy).
+    pub(crate) moments: Vec<SurfaceMoments>,
     radius_about_origin_m: Real,
     triangle_count: usize,
     height: usize,
@@ -287,11 +270,11 @@ impl Hierarchy {
             .iter()
             .map(|v| v.norm())
             .fold(0.0, Real::max);
-        let area_m2 = node_areas(&nodes, &piece);
+        let moments = surface_moments(&nodes, &piece);
         Self {
             nodes,
             piece,
-            area_m2,
+            moments,
             radius_about_origin_m,
             triangle_count: n,
             height,
@@ -319,11 +302,11 @@ impl Hierarchy {
         height: usize,
         build_s: Real,
     ) -> Self {
-        let area_m2 = node_areas(&nodes, &piece);
+        let moments = surface_moments(&nodes, &piece);
         Self {
             nodes,
             piece,
-            area_m2,
+            moments,
             radius_about_origin_m,
             triangle_count,
             height,
@@ -350,13 +333,13 @@ impl Hierarchy {
     pub fn memory_bytes(&self) -> usize {
         self.nodes.capacity() * std::mem::size_of::<Node>()
             + self.piece.capacity() * std::mem::size_of::<Vec3>()
-            + self.area_m2.capacity() * std::mem::size_of::<Real>()
+            + self.moments.capacity() * std::mem::size_of::<SurfaceMoments>()
     }
 
-    /// Surface area (m²) of the mesh's triangles below node `i`.
+    /// Area and height moments of the surface below node `i`.
     #[inline]
-    pub(crate) fn area_of(&self, i: u32) -> Real {
-        self.area_m2[i as usize]
+    pub(crate) fn moments_of(&self, i: u32) -> &SurfaceMoments {
+        &self.moments[i as usize]
     }
 
     /// The piece of node `i` (vertices CCW about the node normal).
@@ -385,18 +368,6 @@ fn fill_bounds(node: &mut Node, node_tris: &[u32], tris: &[[Vec3; 3]]) {
     node.center = c;
     // A hair of slack so that rounding in the distance tests never culls a touching pair.
     node.radius = r2.sqrt() * (1.0 + 1e-12);
-}
-
-/// Two unit vectors `u, w` with `u × w = n`.
-pub(crate) fn plane_basis(n: &Vec3) -> (Vec3, Vec3) {
-    let helper = if n.x.abs() < 0.6 {
-        Vec3::x()
-    } else {
-        Vec3::y()
-    };
-    let u = n.cross(&helper).normalize();
-    let w = n.cross(&u);
-    (u, w)
 }
 
 /// 2-D convex hull (Andrew's monotone chain), counter-clockwise, without collinear points.

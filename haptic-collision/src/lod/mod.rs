@@ -12,31 +12,32 @@
 //! A query places the tool, runs a broad phase (root spheres inflated by `δ`), then walks the
 //! tool's hierarchy against each obstacle's. A node pair is culled when its bounding volumes are
 //! farther apart than `δ`; it stops when `s_a + s_b <= ε`, with `ε = error_threshold ×`
-//! [`LodBackend::tool_bounding_radius_m`], and reports contacts from the two pieces (a touching
-//! contact where they cross, and samples spread over the tool piece at their distance to the
-//! obstacle piece, written merged: one contact per pair and side, `coarse.rs`); otherwise the
-//! node with the larger deviation is split. After the walk, the coarse pairs that could be
-//! closer than the nearest contact or sample found are searched exactly, so
-//! the reported closest approach is the exact one of the stopped pieces: when the exact surfaces
-//! are apart by `D` with `ε < D < δ − ε`, it is within `ε` of `D`. At `error_threshold = 0` the
-//! walk descends to
-//! triangle pairs and the contacts are exact (the same as [`crate::reference::ReferenceBackend`]).
+//! [`LodBackend::tool_bounding_radius_m`], or at two triangles; otherwise the node with the
+//! larger deviation is split.
+//!
+//! A stopped pair writes one contact: the penalty integrated over the part of the tool piece
+//! that lies over the obstacle piece within `δ` of its plane ([`crate::slab`],
+//! `docs/formulation.md` §7). At two triangles the integral is exact; a coarse pair integrates
+//! over its pieces with the heights shifted and spread by where the surfaces they simplify lie
+//! about them (each node's area-weighted mean and variance of height, `moments.rs`), and counts
+//! the share of its area that the surface covers of the piece. After the walk, the pairs whose
+//! closest approach could be closer than every contact written are searched exactly, and the
+//! closest approach is written as a contact of no area, so the reported smallest separation is
+//! the exact one of the stopped pieces: when the exact surfaces are apart by `D` with
+//! `ε < D < δ − ε`, it is within `ε` of `D`. At `error_threshold = 0` the walk descends to
+//! triangle pairs and the contacts are exact (the same as
+//! [`crate::reference::ReferenceBackend`]).
 //!
 //! Contact convention (haptic-core [`Contact`](haptic_core::Contact)): `p_a` on the tool, `p_b` on
-//! the obstacle, `n` out of the tool, `depth_m = −distance` when apart and the separating-axis
-//! penetration depth of the two triangles when they intersect (see [`crate::geometry`]). This
-//! depth is per triangle pair: a triangle that has sunk below the obstacle's surface without
-//! crossing any of its triangles is reported at its distance, as a pre-contact, so deep
-//! penetration of one solid into the other is not measured (parry's depth has the same limit).
-//! Coarse pairs report what their triangle pairs would: crossing pieces as touching (depth 0),
-//! and their extra samples at their distance to the obstacle piece.
-//! `feature_a`/`feature_b` are the source triangle indices for exact (triangle-pair) contacts and
-//! [`NO_FEATURE`](haptic_core::NO_FEATURE) for contacts between coarse pieces.
+//! the obstacle, `n` out of the tool (the obstacle piece's outward normal, reversed), and
+//! `depth_m` the weighted mean depth of the region. The obstacle's faces are oriented: a tool
+//! point below one (down to `δ`) is inside, with a positive depth. `feature_a` and `feature_b`
+//! are the source triangle indices for triangle-pair contacts, and
+//! [`NO_FEATURE`](haptic_core::NO_FEATURE) for contacts between coarse pieces and for the
+//! closest approach.
 //!
-//! Compact contacts: the contacts found are then given their areas (each triangle-pair contact
-//! a share of its tool triangle, each coarse sample a share of its tool node's surface, shared
-//! again among the obstacle pieces it is within `δ` of; see `area.rs`) and, when there are more than [`LodBackend::max_contacts`] (default
-//! [`DEFAULT_MAX_CONTACTS`]), merged region by region into that many by
+//! Compact contacts: when there are more than [`LodBackend::max_contacts`] (default
+//! [`DEFAULT_MAX_CONTACTS`]), the contacts found are merged region by region into that many by
 //! [`crate::compact::Compactor`], which keeps the sums the clustering reads and the deepest
 //! contact. [`LodBackend::with_max_contacts`]`(None)` writes every contact found: the all-pairs
 //! answer at threshold 0, the reference of the error metric.
@@ -47,7 +48,7 @@
 
 mod build;
 mod cache;
-mod coarse;
+mod moments;
 pub(crate) mod query;
 
 use std::time::Instant;
@@ -58,10 +59,9 @@ use haptic_core::{CollisionBackend, ContactSet, CoreError, Pose, QueryParams, Qu
 
 pub use build::Hierarchy;
 pub use cache::{CacheOutcome, FORMAT_VERSION, HierarchyFileError, hierarchy_key};
-use coarse::{CoarseOutput, emit_coarse_pairs};
+pub(crate) use moments::SurfaceMoments;
 use query::{Frames, Nearest, Scratch, Walk, closest_approaches, collide};
 
-use crate::area::AreaSplit;
 use crate::compact::Compactor;
 use crate::mesh::TriMesh;
 
@@ -134,8 +134,6 @@ pub struct LodBackend {
     tool: Hierarchy,
     obstacles: Vec<(Hierarchy, Pose)>,
     scratch: Scratch,
-    split: AreaSplit,
-    coarse_output: CoarseOutput,
     compactor: Compactor,
     max_contacts: Option<usize>,
     stats: BuildStats,
@@ -204,7 +202,6 @@ impl LodBackend {
             total_s: start.elapsed().as_secs_f64(),
         };
         Self {
-            split: AreaSplit::new(tool.triangle_count()),
             tool,
             obstacles,
             scratch: Scratch {
@@ -213,7 +210,6 @@ impl LodBackend {
                 frames: Vec::with_capacity(obstacle_count),
                 ..Scratch::default()
             },
-            coarse_output: CoarseOutput::Regions,
             compactor: Compactor::new(),
             max_contacts: Some(DEFAULT_MAX_CONTACTS),
             stats,
@@ -258,7 +254,6 @@ impl LodBackend {
                 .sum::<usize>()
             + self.scratch.stack.capacity() * std::mem::size_of::<(u32, u32)>()
             + self.scratch.apart.capacity() * std::mem::size_of::<(Real, u32, u32, u32)>()
-            + self.scratch.coarse.memory_bytes()
     }
 
     /// Capacity of the query's scratch buffers, in elements (they are reused between queries;
@@ -266,17 +261,8 @@ impl LodBackend {
     pub fn scratch_capacity(&self) -> usize {
         self.scratch.stack.capacity()
             + self.scratch.apart.capacity()
-            + self.scratch.coarse.capacity()
             + self.scratch.nearest.capacity()
             + self.scratch.frames.capacity()
-    }
-
-    /// The same back-end writing one contact per coarse sample instead of one per coarse pair
-    /// and side: what the pairs' contacts sum up, for the tests that check they do.
-    #[cfg(test)]
-    pub(crate) fn with_coarse_samples(mut self) -> Self {
-        self.coarse_output = CoarseOutput::Samples;
-        self
     }
 
     /// The tool's hierarchy.
@@ -339,19 +325,6 @@ impl CollisionBackend for LodBackend {
                 &mut stats,
             )?;
         }
-        // Coarse pairs of all obstacles together, so that a tool sample near two obstacles
-        // shares its area between them.
-        emit_coarse_pairs(
-            &self.tool,
-            &self.obstacles,
-            &self.scratch.frames,
-            params.delta_m,
-            self.coarse_output,
-            &mut self.scratch.coarse,
-            &mut self.scratch.nearest,
-            &mut self.scratch.apart,
-            out,
-        )?;
         closest_approaches(
             &self.tool,
             &self.obstacles,
@@ -359,7 +332,6 @@ impl CollisionBackend for LodBackend {
             &mut self.scratch,
             out,
         )?;
-        self.split.split(out.as_mut_slice(), params.delta_m);
         if let Some(max) = self.max_contacts {
             let found = self.compactor.compact(out, params.delta_m, max);
             stats.raw_contacts = found as u64;

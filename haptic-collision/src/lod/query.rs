@@ -3,9 +3,9 @@
 use haptic_core::{Contact, ContactSet, Mat3, NO_FEATURE, Pose, QueryStats, Real, Vec3};
 
 use super::build::{Hierarchy, Node};
-use super::coarse::{CoarsePair, CoarseScratch, sample_count, sample_level};
 use super::{LodError, MAX_PIECE_VERTICES};
 use crate::geometry::{PairContact, convex_polygon_pair};
+use crate::slab::{HeightOffset, pair_region};
 
 /// The rigid map from the tool's body frame to one obstacle's mesh frame, and what is needed to
 /// write contacts in the world frame.
@@ -152,11 +152,9 @@ pub(crate) struct Walk<'a> {
 pub(crate) struct Scratch {
     /// The traversal stack of node pairs (tool, obstacle).
     pub stack: Vec<(u32, u32)>,
-    /// Coarse pairs whose pieces do not cross and reported nothing closer than their lower
-    /// bound: the bound, the obstacle and the nodes.
+    /// Stopped pairs whose closest approach may lie outside their region (they do not cross
+    /// over the obstacle piece): a lower bound on their distance, the obstacle and the nodes.
     pub apart: Vec<(Real, u32, u32, u32)>,
-    /// The stopped coarse pairs of the query and what writing them needs.
-    pub coarse: CoarseScratch,
     /// Per obstacle: the smallest distances written and found so far.
     pub nearest: Vec<Nearest>,
     /// Per obstacle: the frames of this query.
@@ -168,9 +166,9 @@ pub(crate) struct Scratch {
 pub(crate) struct Nearest {
     /// The smallest distance written (m): of a contact in the output.
     pub written_m: Real,
-    /// The smallest distance found (m): written, or of a coarse sample merged into a region.
+    /// The smallest distance found (m): written, or the nearest point of a region.
     pub found_m: Real,
-    /// The coarse pair (tool node, obstacle node) whose sample gave `found_m`, when it was not
+    /// The pair (tool node, obstacle node) whose region gave `found_m`, when it was not
     /// written.
     pub found_pair: Option<(u32, u32)>,
 }
@@ -193,7 +191,7 @@ impl Nearest {
         }
     }
 
-    /// Coarse pair `(ia, ib)` sampled a point at `distance_m`, merged into a region.
+    /// Pair `(ia, ib)` has a region whose nearest point is at `distance_m`.
     #[inline]
     pub fn found(&mut self, distance_m: Real, ia: u32, ib: u32) {
         if distance_m < self.found_m {
@@ -203,10 +201,9 @@ impl Nearest {
     }
 }
 
-/// Walks tool × obstacle `obstacle` from the root pair: writes the contacts of the leaf pairs
-/// into `out` (noting their distances in `scratch.nearest[obstacle]`) and
-/// records the coarse pairs it stops at in `scratch.coarse`, written afterwards by
-/// [`super::coarse::emit_coarse_pairs`] for all obstacles at once.
+/// Walks tool × obstacle `obstacle` from the root pair and writes one contact per stopped pair
+/// into `out` ([`pair_region`]), noting the distances in `scratch.nearest[obstacle]` and the
+/// pairs whose closest approach may lie outside their region in `scratch.apart`.
 ///
 /// # Errors
 /// [`LodError::Core`] for a non-finite contact.
@@ -221,7 +218,7 @@ pub(crate) fn collide(
 ) -> Result<(), LodError> {
     let Scratch {
         stack,
-        coarse,
+        apart,
         nearest,
         ..
     } = scratch;
@@ -254,23 +251,36 @@ pub(crate) fn collide(
                 continue;
             }
             stats.primitive_pairs_tested += 1;
-            if leaf_a && leaf_b {
-                let pc = convex_polygon_pair(&buf[..len], &na, pb, &b.normal);
-                if pc.depth >= -delta {
-                    // The triangle's whole area; `AreaSplit` shares it among its contacts.
-                    frames.emit(&pc, a.triangle, b.triangle, tool.area_of(ia), out)?;
-                    nearest.written(pc.distance);
-                }
+            let leaves = leaf_a && leaf_b;
+            let offset = if leaves {
+                HeightOffset::NONE
             } else {
-                // No more samples than the triangle pairs the coarse pair stands for.
-                let budget = a.triangles.saturating_mul(b.triangles);
-                coarse.pairs.push(CoarsePair {
-                    ia,
-                    level: sample_level(len, budget) as u32,
-                    obstacle,
-                    ib,
-                    gap_m: gap,
-                });
+                HeightOffset::of_pieces(tool.moments_of(ia), obs.moments_of(ib), na.dot(&b.normal))
+            };
+            let regions = pair_region(&buf[..len], pb, &b.normal, delta, offset);
+            if let Some(r) = regions.region {
+                let pc = PairContact {
+                    p_a: r.centroid,
+                    p_b: r.centroid + b.normal * r.depth_m,
+                    n: -b.normal,
+                    depth: r.depth_m,
+                    distance: -r.depth_m,
+                };
+                let (fa, fb, cover) = if leaves {
+                    (a.triangle, b.triangle, 1.0)
+                } else {
+                    let cover = tool.moments_of(ia).cover * obs.moments_of(ib).cover;
+                    (NO_FEATURE, NO_FEATURE, cover)
+                };
+                frames.emit(&pc, fa, fb, r.area_m2 * cover, out)?;
+                nearest.written(pc.distance);
+            }
+            if regions.nearest_m.is_finite() {
+                nearest.found(regions.nearest_m, ia, ib);
+            }
+            if regions.nearest_m > 0.0 {
+                // Its closest approach may lie outside the region (beyond an edge of `b`).
+                apart.push((gap, obstacle, ia, ib));
             }
             continue;
         }
@@ -295,15 +305,33 @@ pub(crate) fn collide(
     Ok(())
 }
 
-/// The closest approach among the coarse pairs that could hold one closer than written
+/// A pair's closest approach as a contact: where the polygons cross, touching (depth 0) at the
+/// middle of their separating-axis contact, since the regions carry the force and the
+/// separating-axis depth measures the polygons' sizes rather than how far the tool went in.
+pub(crate) fn touching_if_crossing(pc: PairContact) -> PairContact {
+    if pc.depth <= 0.0 {
+        return pc;
+    }
+    let x = (pc.p_a + pc.p_b) * 0.5;
+    PairContact {
+        p_a: x,
+        p_b: x,
+        depth: 0.0,
+        distance: 0.0,
+        ..pc
+    }
+}
+
+/// The closest approach among the stopped pairs that could hold one closer than written
 /// (`scratch.apart`, emptied), one contact per obstacle where it is closer than every contact
 /// written against that obstacle.
 ///
-/// The coarse pairs' samples need not include their pieces' closest points, and a pair's samples
-/// are written merged (at their mean distance), so the pairs whose lower bound is below the
-/// smallest distance found (a sample's, or a contact's) are searched exactly, and so is the pair
-/// whose sample that was: the smallest distance written is then the exact distance between the
-/// stopped pieces. The contact stands for one sample's share of its tool piece.
+/// A region's contact sits at its weighted mean depth, and a pair's closest points may lie
+/// beyond the obstacle piece's edges, outside every region; so the pairs whose lower bound is
+/// below the smallest distance found (a region's nearest point, or a contact's) are searched
+/// exactly, and so is the pair whose region that was: the smallest distance written is then the
+/// exact distance between the stopped pieces (0 where they cross). The contact stands for no
+/// area: it reports the distance without adding to the force the regions integrate.
 ///
 /// # Errors
 /// [`LodError::Core`] for a non-finite contact.
@@ -332,8 +360,7 @@ pub(crate) fn closest_approaches(
             let (a, b) = (&tool.nodes[ia as usize], &obs.nodes[ib as usize]);
             let (len, na) = place_piece(tool, a, f, &mut buf);
             let pc = convex_polygon_pair(&buf[..len], &na, obs.piece_of(b), &b.normal);
-            let level = sample_level(len, a.triangles.saturating_mul(b.triangles));
-            (pc, tool.area_of(ia) / sample_count(len, level) as Real)
+            (touching_if_crossing(pc), 0.0)
         };
         let mut near = found.found_m;
         let mut closest: Option<(PairContact, Real)> = None;

@@ -212,12 +212,16 @@ proptest! {
             prop_assert_eq!(x.0, y.0);
             prop_assert!((x.1 - y.1).abs() <= 1e-12 * x.1.max(1e-12), "{} {}", x.1, y.1);
         }
-        // Each tool triangle's contacts add up to its area.
-        for t in ka.iter().map(|k| k.0.0) {
-            let sum: Real = a.iter().filter(|c| c.feature_a == t).map(|c| c.area_m2).sum();
-            let tri = tool.triangle(t as usize);
+        // Each contact stands for at most its tool triangle (the part over the obstacle
+        // triangle), the closest approach for none.
+        for c in a.iter() {
+            if c.feature_a == NO_FEATURE {
+                prop_assert_eq!(c.area_m2, 0.0);
+                continue;
+            }
+            let tri = tool.triangle(c.feature_a as usize);
             let area = 0.5 * (tri[1] - tri[0]).cross(&(tri[2] - tri[0])).norm();
-            prop_assert!((sum - area).abs() <= 1e-12 * area.max(1e-12), "{sum} {area}");
+            prop_assert!(c.area_m2 > 0.0 && c.area_m2 <= area * (1.0 + 1e-9), "{} {area}", c.area_m2);
         }
         let (da, pa) = min_distance_and_max_depth(&a);
         let (db, pb) = min_distance_and_max_depth(&b);
@@ -265,7 +269,7 @@ proptest! {
             prop_assert!(pa > 0.0 || da == db, "{da} {db}");
         }
         for c in b.iter() {
-            prop_assert!(c.validate().is_ok() && c.area_m2 > 0.0);
+            prop_assert!(c.validate().is_ok() && c.area_m2 >= 0.0);
             prop_assert!((pose.transform_point(&c.r_a) - c.p_a).norm() < 1e-9);
         }
     }
@@ -297,37 +301,6 @@ proptest! {
             prop_assert!(c.depth_m >= -delta);
         }
     }
-
-    /// Coarse pairs written as one contact per pair and side keep what the clustering reads of
-    /// their samples: `Σ w`, `Σ w p_a`, `Σ w r_a` and `Σ w d` (`w = a (d + δ)`), in fewer
-    /// contacts, on random scenes of two obstacles at coarse thresholds.
-    #[test]
-    fn coarse_regions_keep_the_samples_sums(
-        seed in 0u64..1_000_000,
-        pose_seed in 0u64..1_000_000,
-        threshold in 0.005f64..0.1,
-    ) {
-        let (tool, obstacles) = scene(seed);
-        let mut rng = Lcg(pose_seed);
-        let pose = random_pose(&mut rng, 0.01);
-        let params = QueryParams::new(0.004, threshold).unwrap();
-        let mut regions = LodBackend::new(&tool, &obstacles).unwrap().with_max_contacts(None);
-        let mut samples = regions.clone().with_coarse_samples();
-        let (mut r, mut s) = (ContactSet::new(), ContactSet::new());
-        regions.query(&pose, &params, &mut r).unwrap();
-        samples.query(&pose, &params, &mut s).unwrap();
-        prop_assert!(r.len() <= s.len(), "{} regions, {} samples", r.len(), s.len());
-        let (mr, ms) = (weighted_sums(&r, 0.004), weighted_sums(&s, 0.004));
-        let scale = ms.0.max(1e-30);
-        prop_assert!((mr.0 - ms.0).abs() <= 1e-9 * scale, "Σw {} vs {}", mr.0, ms.0);
-        prop_assert!((mr.1 - ms.1).norm() <= 1e-9 * scale, "Σw p");
-        prop_assert!((mr.2 - ms.2).norm() <= 1e-9 * scale, "Σw r");
-        prop_assert!((mr.3 - ms.3).abs() <= 1e-9 * scale * 0.004, "Σw d {} vs {}", mr.3, ms.3);
-        for c in r.iter() {
-            prop_assert!(c.validate().is_ok() && c.area_m2 >= 0.0);
-            prop_assert!((c.p_a - c.p_b - c.n * c.depth_m).norm() < 1e-12);
-        }
-    }
 }
 
 /// `Σ w`, `Σ w p_a`, `Σ w r_a`, `Σ w d` of `set`, with the clustering's weights.
@@ -344,10 +317,10 @@ fn weighted_sums(set: &ContactSet, delta: Real) -> (Real, Vec3, Vec3, Real) {
 }
 
 #[test]
-fn a_tool_piece_over_two_obstacles_shares_each_sample_between_them() {
+fn a_tool_piece_over_two_obstacles_counts_its_surface_once() {
     // A flat tool square, 0.2 mm over the seam of two flat obstacle squares (two obstacles),
-    // δ = 1 mm: the samples along the seam are within δ of both. The pieces are exact (flat), so
-    // at any threshold the walk stops at coarse pairs.
+    // δ = 1 mm. The pieces are exact (flat), so at a coarse threshold the walk stops above the
+    // leaves, and the two obstacles' prisms share the tool square at the seam.
     let tool = flat_grid(4, 0.005, false);
     let obstacles = vec![
         (
@@ -360,31 +333,29 @@ fn a_tool_piece_over_two_obstacles_shares_each_sample_between_them() {
         ),
     ];
     let pose = Pose::from_position(Vec3::new(0.0, 0.0, 0.0002));
-    let params = QueryParams::new(0.001, 0.05).unwrap();
+    let delta = 0.001;
     let mut lod = LodBackend::new(&tool, &obstacles)
         .unwrap()
         .with_max_contacts(None);
-    let mut samples = lod.clone().with_coarse_samples();
-    let (mut r, mut s) = (ContactSet::new(), ContactSet::new());
-    lod.query(&pose, &params, &mut r).unwrap();
-    samples.query(&pose, &params, &mut s).unwrap();
-    assert!(
-        s.iter().all(|c| c.feature_a == NO_FEATURE),
-        "stopped above the leaves"
-    );
-    // The samples' areas add up to the tool's (1 cm²) once, not twice.
-    let total: Real = s.iter().map(|c| c.area_m2).sum();
-    assert!((total - 1e-4).abs() < 1e-4 * 1e-9, "{total}");
-    // Fewer contacts, the same weight and centroid.
-    assert!(
-        r.len() < s.len(),
-        "{} regions, {} samples",
-        r.len(),
-        s.len()
-    );
-    let (mr, ms) = (weighted_sums(&r, 0.001), weighted_sums(&s, 0.001));
-    assert!((mr.0 - ms.0).abs() < 1e-9 * ms.0);
-    assert!((mr.1 / mr.0 - ms.1 / ms.0).norm() < 1e-12);
+    for threshold in [0.0, 0.05] {
+        let mut r = ContactSet::new();
+        lod.query(&pose, &QueryParams::new(delta, threshold).unwrap(), &mut r)
+            .unwrap();
+        if threshold > 0.0 {
+            assert!(
+                r.iter().all(|c| c.feature_a == NO_FEATURE),
+                "stopped above the leaves"
+            );
+        }
+        // The tool's 1 cm² once, not twice, all of it 0.2 mm above the floor.
+        let total: Real = r.iter().map(|c| c.area_m2).sum();
+        assert!((total - 1e-4).abs() < 1e-4 * 1e-9, "{total}");
+        let (w, p, _, d) = weighted_sums(&r, delta);
+        assert!((w - 1e-4 * 0.0008).abs() < 1e-9 * w, "{w}");
+        assert!((d / w + 0.0002).abs() < 1e-12, "{}", d / w);
+        // The centre of pressure is the square's centre, above the seam.
+        assert!((p / w - Vec3::new(0.0, 0.0, 0.0002)).norm() < 1e-12);
+    }
 }
 
 #[test]
@@ -509,7 +480,8 @@ fn bad_inputs_give_typed_errors() {
 
 #[test]
 fn normals_point_out_of_the_tool() {
-    // A small cube resting 1 mm above a large one: every contact normal points down (-z).
+    // A small cube resting 1 mm above a large one: every contact normal points down (-z); the
+    // bottom face's contacts are 1 mm away, the side faces' strips within δ of the floor farther.
     let tool = cuboid(Vec3::new(0.01, 0.01, 0.01));
     let floor = cuboid(Vec3::new(0.1, 0.1, 0.01));
     let mut lod = LodBackend::new(
@@ -528,8 +500,13 @@ fn normals_point_out_of_the_tool() {
         assert!(!out.is_empty());
         for c in out.iter() {
             assert!((c.n + Vec3::z()).norm() < 1e-9, "{c:?}");
-            assert!((c.depth_m + 0.001).abs() < 1e-12);
+            assert!(c.depth_m <= -0.001 + 1e-12 && c.depth_m >= -0.002, "{c:?}");
         }
+        let nearest = out
+            .iter()
+            .map(|c| c.depth_m)
+            .fold(Real::NEG_INFINITY, Real::max);
+        assert!((nearest + 0.001).abs() < 1e-12, "{nearest}");
     }
     // Sunk 0.5 mm: depth 0.5 mm, still along -z.
     lod.query(
@@ -574,9 +551,9 @@ fn flat_grid(k: usize, half: Real, up: bool) -> TriMesh {
 #[test]
 fn coarse_closest_approach_is_exact_between_the_pieces() {
     // Two flat grids, so every piece is exact (deviation 0) and the walk stops at coarse pairs
-    // for any threshold above 0. The obstacle is tilted so that its closest point, a corner, lies
-    // under the middle of a cell of the tool piece's samples: the samples alone would report a
-    // larger distance; the search after the walk finds the exact one.
+    // for any threshold above 0. The obstacle is tilted so that its closest point is a corner:
+    // the region over it reports its weighted mean depth; the search after the walk finds the
+    // exact distance.
     let tool = flat_grid(8, 0.1, false);
     let obstacle = flat_grid(8, 0.05, true);
     let corner = Vec3::new(0.05, 0.05, 0.0);

@@ -1,0 +1,174 @@
+//! What each node's piece does not show of its surface: the area of the triangles below the node,
+//! and the mean and variance of their heights above the piece's plane (area-weighted, exact for
+//! triangles). A coarse pair integrates the penalty over its pieces (`crate::slab`); these
+//! moments say where the surfaces the pieces simplify lie about them. Derived from the leaves'
+//! triangles in one pass, so they are not saved with a hierarchy.
+
+use haptic_core::{Mat3, Real, Vec3};
+
+use super::build::Node;
+
+/// Per node: area (m²) and the heights' mean (m) and variance (m²) about its piece's plane.
+#[derive(Debug, Clone, Copy, Default, PartialEq)]
+pub(crate) struct SurfaceMoments {
+    /// Surface area of the triangles below the node (m²).
+    pub area_m2: Real,
+    /// Area-weighted mean height of those triangles above the piece's plane, along its normal
+    /// (m); 0 for a leaf.
+    pub height_mean_m: Real,
+    /// Area-weighted variance of the heights (m²); 0 for a leaf.
+    pub height_var_m2: Real,
+    /// The surface's area over the piece's, at most 1: the convex piece of a patch that is not
+    /// convex spreads over its neighbours' (their prisms overlap by its excess), so a region
+    /// over it counts for this share of its area. 1 for a leaf.
+    pub cover: Real,
+}
+
+/// The moments of every node. The children of node `i` (`i + 1` and `right`) come after it,
+/// so one pass from the end sums their raw moments (`∫dA`, `∫x dA`, `∫x xᵀ dA`); a leaf's piece
+/// is its triangle.
+pub(crate) fn surface_moments(nodes: &[Node], piece: &[Vec3]) -> Vec<SurfaceMoments> {
+    // Raw moments about the first leaf's first vertex, so that they stay small for a patch far
+    // from the mesh's origin.
+    let origin = piece.first().copied().unwrap_or_else(Vec3::zeros);
+    let mut raw = vec![(0.0, Vec3::zeros(), Mat3::zeros()); nodes.len()];
+    let mut out = vec![SurfaceMoments::default(); nodes.len()];
+    for i in (0..nodes.len()).rev() {
+        let n = &nodes[i];
+        raw[i] = if n.is_leaf() {
+            let s = n.piece_start as usize;
+            match piece.get(s..s + n.piece_len as usize) {
+                Some([a, b, c]) => {
+                    let (a, b, c) = (a - origin, b - origin, c - origin);
+                    let area = 0.5 * (b - a).cross(&(c - a)).norm();
+                    let sum = a + b + c;
+                    // ∫x xᵀ over a triangle: A/12 (Σ vᵢ vᵢᵀ + (Σ vᵢ)(Σ vᵢ)ᵀ).
+                    let second = (a * a.transpose()
+                        + b * b.transpose()
+                        + c * c.transpose()
+                        + sum * sum.transpose())
+                        * (area / 12.0);
+                    (area, sum * (area / 3.0), second)
+                }
+                _ => (0.0, Vec3::zeros(), Mat3::zeros()),
+            }
+        } else {
+            let zero = (0.0, Vec3::zeros(), Mat3::zeros());
+            let l = raw.get(i + 1).copied().unwrap_or(zero);
+            let r = raw.get(n.right as usize).copied().unwrap_or(zero);
+            (l.0 + r.0, l.1 + r.1, l.2 + r.2)
+        };
+        let (area, first, second) = raw[i];
+        let mut m = SurfaceMoments {
+            area_m2: area,
+            cover: 1.0,
+            ..SurfaceMoments::default()
+        };
+        if !n.is_leaf() && area > 0.0 && n.normal.iter().all(|x| x.is_finite()) {
+            // h = n·x − c with c = n·p₀: ∫h = n·∫x − A c; ∫h² = nᵀ(∫x xᵀ)n − 2c n·∫x + A c².
+            let c = n.normal.dot(&(n.plane_point - origin));
+            let nf = n.normal.dot(&first);
+            let mean = nf / area - c;
+            let second_h = n.normal.dot(&(second * n.normal)) / area - 2.0 * c * nf / area + c * c;
+            m.height_mean_m = mean;
+            m.height_var_m2 = (second_h - mean * mean).max(0.0);
+            let s = n.piece_start as usize;
+            if let Some(p) = piece.get(s..s + n.piece_len as usize) {
+                let piece_area = polygon_area(p);
+                if piece_area > area {
+                    m.cover = area / piece_area;
+                }
+            }
+        }
+        out[i] = m;
+    }
+    out
+}
+
+/// Area of a planar convex polygon (m²).
+fn polygon_area(p: &[Vec3]) -> Real {
+    let mut s = Vec3::zeros();
+    for k in 1..p.len().saturating_sub(1) {
+        s += (p[k] - p[0]).cross(&(p[k + 1] - p[0]));
+    }
+    0.5 * s.norm()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::lod::Hierarchy;
+    use crate::lod::testmesh::mesh;
+
+    /// Against the moments summed triangle by triangle (each by a three-point rule exact for
+    /// quadratics) for every node of a bumpy mesh.
+    #[test]
+    fn moments_match_the_triangles_below_each_node() {
+        let mut verts = Vec::new();
+        let k = 12;
+        for i in 0..=k {
+            for j in 0..=k {
+                let (x, y) = (i as Real * 0.01, j as Real * 0.01);
+                verts.push(Vec3::new(
+                    x,
+                    y,
+                    0.002 * (40.0 * x).sin() * (30.0 * y).cos() + 0.3,
+                ));
+            }
+        }
+        let mut tris = Vec::new();
+        for i in 0..k {
+            for j in 0..k {
+                let v = |a: usize, b: usize| (a * (k + 1) + b) as u32;
+                tris.push([v(i, j), v(i + 1, j), v(i + 1, j + 1)]);
+                tris.push([v(i, j), v(i + 1, j + 1), v(i, j + 1)]);
+            }
+        }
+        let m = mesh(verts, tris);
+        let h = Hierarchy::build(&m);
+        let moments = surface_moments(&h.nodes, &h.piece);
+        for (i, node) in h.nodes.iter().enumerate() {
+            let mut tris_below = Vec::new();
+            let mut stack = vec![i];
+            while let Some(j) = stack.pop() {
+                let nj = &h.nodes[j];
+                if nj.is_leaf() {
+                    tris_below.push(m.triangle(nj.triangle as usize));
+                } else {
+                    stack.push(j + 1);
+                    stack.push(nj.right as usize);
+                }
+            }
+            let height = |x: &Vec3| node.normal.dot(&(x - node.plane_point));
+            let (mut a, mut s1, mut s2) = (0.0, 0.0, 0.0);
+            for t in &tris_below {
+                let area = 0.5 * (t[1] - t[0]).cross(&(t[2] - t[0])).norm();
+                // Edge midpoints: exact for quadratics.
+                for (p, q) in [(0, 1), (1, 2), (2, 0)] {
+                    let hm = height(&((t[p] + t[q]) * 0.5));
+                    s1 += area / 3.0 * hm;
+                    s2 += area / 3.0 * hm * hm;
+                }
+                a += area;
+            }
+            let got = moments[i];
+            assert!((got.area_m2 - a).abs() <= 1e-12 * a);
+            if node.is_leaf() {
+                assert_eq!((got.height_mean_m, got.height_var_m2), (0.0, 0.0));
+                continue;
+            }
+            let (mean, var) = (s1 / a, s2 / a - (s1 / a).powi(2));
+            assert!(
+                (got.height_mean_m - mean).abs() < 1e-12,
+                "node {i}: {got:?} vs {mean}"
+            );
+            assert!(
+                (got.height_var_m2 - var).abs() < 1e-12,
+                "node {i}: {got:?} vs {var}"
+            );
+            // Every height lies within the deviation of the piece's plane.
+            assert!(got.height_mean_m.abs() <= node.deviation + 1e-12);
+            assert!(got.height_var_m2.sqrt() <= node.deviation + 1e-12);
+        }
+    }
+}
