@@ -6,10 +6,15 @@
 //! - `haptic_step.<integrator>.{free,contacts5}`: one haptic step = `set_device` + integrator step
 //!   with [`HapticForces`] + `device_reaction` at the new state. The spoon of the work-precision
 //!   study (100 g) on the default coupling, the hand motion of the free-space study at 1 kHz; with
-//!   `contacts5`, the linearized penalty wrench of five representatives (the work-precision
-//!   table contact). Each step starts from the state of a backward-Euler run along the same hand
-//!   motion (so that every integrator is timed at the same, bounded states even where it would
-//!   itself go unstable).
+//!   `contacts5`, the penalty wrench of five representatives (the work-precision table contact)
+//!   on their fixed frames, the runtime's default contact model, with the contacts' yield and
+//!   the Jacobian each integrator asks for, as the runtime's haptic stage takes a step. Each step
+//!   starts from the state of a backward-Euler run along the same hand motion (so that every
+//!   integrator is timed at the same, bounded states even where it would itself go unstable).
+//!   On the paper's tangents, held for the whole 2.5 s run, the backward-Euler run itself was
+//!   thrown off the table late in the motion after an ulp-level change of the bounds' arithmetic
+//!   (a stale tangent can give energy, `docs/stability.md`), and Newton then failed on its
+//!   states.
 //! - `cluster_50_to_5_median_s`: `Clusterer` (defaults: K = 5, warm start) on 50 contacts of a
 //!   drifting patch, as in `haptic-cluster/benches/cluster.rs`.
 //! - `collision_jaws`: `ParryBackend`, `LodBackend` exact and at 2.5 % of the tool's bounding
@@ -31,8 +36,8 @@ use std::time::Instant;
 use haptic_cluster::{ClusterParams, Clusterer};
 use haptic_collision::{LoadOptions, LodBackend, ParryBackend, TriMesh};
 use haptic_core::{
-    CollisionBackend, Contact, ContactSet, DeviceState, Integrator, LinearizedContact, Pose,
-    QueryParams, Real, ToolState, Vec3,
+    CollisionBackend, Contact, ContactSet, DeviceState, Integrator, Kinematics, LinearizationMode,
+    LinearizedContact, Pose, QueryParams, Real, ToolState, Vec3,
 };
 use haptic_dynamics::{HapticForces, IntegratorKind};
 use nalgebra::UnitQuaternion;
@@ -57,6 +62,38 @@ fn median(v: &mut [Real]) -> Real {
     quantiles(v).0
 }
 
+/// The forces of one haptic step as the runtime sets them up for `integ`: the coupling, and with
+/// `contact` the table contact on its fixed frames (the runtime's default model), with the
+/// contact Jacobian the integrator asks for.
+fn haptic_forces(s: &Setup, contact: bool, integ: &dyn Integrator) -> HapticForces {
+    let mut forces = HapticForces::new(s.coupling);
+    forces.mode = LinearizationMode::FixedFrames;
+    forces.jacobian_kind = integ.jacobian_kind();
+    if contact {
+        forces.contact = s.table;
+    }
+    forces
+}
+
+/// One haptic step as the runtime's haptic stage takes it: the device reading, the contacts
+/// pressed beyond their reach yielding (fixed frames), the integrator's step.
+fn haptic_step(
+    s: &Setup,
+    integ: &mut dyn Integrator,
+    forces: &mut HapticForces,
+    (device, tool): (&DeviceState, &ToolState),
+    t_s: Real,
+) -> anyhow::Result<ToolState> {
+    forces.coupling.set_device(device)?;
+    if !forces.contact.is_empty() {
+        let y = tool.to_vector();
+        forces
+            .contact
+            .yield_beyond_reach(&y, &Kinematics::new(&s.body, &y));
+    }
+    Ok(integ.step(&s.body, tool, t_s, 1.0 / RATE_HZ, forces)?)
+}
+
 /// The device readings and the backward-Euler states along the hand motion, one per haptic step.
 fn reference_states(
     s: &Setup,
@@ -64,19 +101,15 @@ fn reference_states(
     steps: usize,
 ) -> anyhow::Result<Vec<(DeviceState, ToolState)>> {
     let h = 1.0 / RATE_HZ;
-    let mut forces = HapticForces::new(s.coupling);
-    if contact {
-        forces.contact = s.table;
-    }
     let mut integ = IntegratorKind::LinearizedBackwardEuler.boxed();
+    let mut forces = haptic_forces(s, contact, &*integ);
     let mut tool = s.start;
     let mut out = Vec::with_capacity(steps);
     for n in 0..steps {
         let t = n as Real * h;
         let device = hand_device(t);
         out.push((device, tool));
-        forces.coupling.set_device(&device)?;
-        tool = integ.step(&s.body, &tool, t, h, &mut forces)?;
+        tool = haptic_step(s, &mut *integ, &mut forces, (&device, &tool), t)?;
     }
     Ok(out)
 }
@@ -90,16 +123,12 @@ fn time_haptic_step(
     samples: usize,
 ) -> anyhow::Result<(Real, Real, Real)> {
     let h = 1.0 / RATE_HZ;
-    let mut forces = HapticForces::new(s.coupling);
-    if contact {
-        forces.contact = s.table;
-    }
     let mut integ: Box<dyn Integrator + Send> = kind.boxed();
+    let mut forces = haptic_forces(s, contact, &*integ);
     let mut times = Vec::with_capacity(samples);
     // One unmeasured pass to warm caches and branch predictors.
     for (i, (device, tool)) in states.iter().enumerate() {
-        forces.coupling.set_device(device)?;
-        let next = integ.step(&s.body, tool, i as Real * h, h, &mut forces)?;
+        let next = haptic_step(s, &mut *integ, &mut forces, (device, tool), i as Real * h)?;
         black_box(forces.coupling.device_reaction(&s.body, &next));
     }
     for k in 0..samples {
@@ -107,8 +136,13 @@ fn time_haptic_step(
         let (device, tool) = &states[i];
         let t = i as Real * h;
         let clock = Instant::now();
-        forces.coupling.set_device(black_box(device))?;
-        let next = integ.step(&s.body, black_box(tool), t, h, &mut forces)?;
+        let next = haptic_step(
+            s,
+            &mut *integ,
+            &mut forces,
+            (black_box(device), black_box(tool)),
+            t,
+        )?;
         let reaction = forces.coupling.device_reaction(&s.body, &next);
         times.push(clock.elapsed().as_secs_f64());
         black_box(reaction);
