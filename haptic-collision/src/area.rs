@@ -11,10 +11,8 @@
 //! area into each contact, tagged with the triangle (`feature_a`); [`AreaSplit::split`] then
 //! shares it.
 //!
-//! A coarse piece's sample point is the same point for every obstacle piece the tool piece is
-//! paired with, and is within `δ` of each it is near; `lod/coarse.rs` shares the sample's area
-//! among those pieces the same way, so a tool surface weighs the same whether the walk stopped
-//! at coarse pieces or went down to triangles.
+//! Used by [`crate::parry::ParryBackend`]; `LodBackend` and the reference write each contact
+//! with the area of its region instead (`crate::slab`).
 
 use haptic_core::{Contact, NO_FEATURE, Real, Vec3};
 

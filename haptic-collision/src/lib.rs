@@ -21,10 +21,11 @@
 //!
 //! Contact convention (docs/formulation.md): `p_a` on the tool, `r_a` the same point in the
 //! tool's body frame, `p_b` on the obstacle, `n` unit and out of the tool, `depth_m` positive
-//! inside and down to `−δ` when apart, `area_m2` the tool surface the contact stands for (split
-//! among the contacts of one tool triangle, see `area.rs`). How each back-end measures depth
+//! inside and down to `−δ` when apart, `area_m2` the tool surface the contact stands for (a pair's
+//! region in `LodBackend` and the reference, `slab.rs`; a share of its tool triangle in parry). How each back-end measures depth
 //! inside an overlap is in its module docs.
 
+#[cfg(feature = "parry")]
 mod area;
 pub mod compact;
 pub mod geometry;
