@@ -590,3 +590,80 @@ fn coarse_closest_approach_is_exact_between_the_pieces() {
     );
     assert!(st.primitive_pairs_tested < 10, "{st:?}");
 }
+
+/// A box of half-extents `h` centred at the origin, each face a `k × k` grid of cells of two
+/// triangles (outward, counter-clockwise).
+fn grid_box(h: Vec3, k: usize) -> TriMesh {
+    let mut vertices = Vec::new();
+    let mut triangles = Vec::new();
+    // Each face: its normal axis and sign; (u, v) spans it with u × v along the outward normal.
+    for axis in 0..3 {
+        for sign in [-1.0, 1.0] {
+            let (a, b) = ((axis + 1) % 3, (axis + 2) % 3);
+            let (u, v) = if sign > 0.0 { (a, b) } else { (b, a) };
+            let base = vertices.len() as u32;
+            for i in 0..=k {
+                for j in 0..=k {
+                    let mut p = Vec3::zeros();
+                    p[axis] = sign * h[axis];
+                    p[u] = h[u] * (2.0 * i as Real / k as Real - 1.0);
+                    p[v] = h[v] * (2.0 * j as Real / k as Real - 1.0);
+                    vertices.push(p);
+                }
+            }
+            let at = |i: usize, j: usize| base + (i * (k + 1) + j) as u32;
+            for i in 0..k {
+                for j in 0..k {
+                    triangles.push([at(i, j), at(i + 1, j), at(i + 1, j + 1)]);
+                    triangles.push([at(i, j), at(i + 1, j + 1), at(i, j + 1)]);
+                }
+            }
+        }
+    }
+    mesh(vertices, triangles)
+}
+
+/// A box over a larger one, tilted so that its bottom face crosses the floor's plane and one of
+/// its side faces comes within δ: at threshold 0 the weight, its centroid and its weighted depth
+/// are the same whether each face is 2 triangles or a fine grid (the issue's "a box and its
+/// subdivided copy give the same wrench face-on-face": with them the same, so is the force of
+/// one representative, `k_c (d + δ)` at the centroid).
+#[test]
+fn a_box_and_its_subdivided_copy_give_the_same_contact_sums() {
+    let delta = 0.001;
+    let tilt = UnitQuaternion::from_scaled_axis(Vector3::new(0.03, -0.02, 0.2));
+    let pose = Pose {
+        position: Vec3::new(0.006, -0.004, 0.01 + 0.01 + 0.0002),
+        orientation: tilt,
+    };
+    let sums = |k_tool: usize, k_floor: usize| {
+        let tool = grid_box(Vec3::new(0.02, 0.015, 0.01), k_tool);
+        let floor = grid_box(Vec3::new(0.04, 0.03, 0.01), k_floor);
+        let mut lod = LodBackend::new(&tool, &[(floor, Pose::identity())])
+            .unwrap()
+            .with_max_contacts(None);
+        let mut out = ContactSet::new();
+        lod.query(&pose, &QueryParams::new(delta, 0.0).unwrap(), &mut out)
+            .unwrap();
+        assert!(out.iter().any(|c| c.depth_m > 0.0), "crossing");
+        weighted_sums(&out, delta)
+    };
+    let coarse = sums(1, 1);
+    for (kt, kf) in [(4, 1), (1, 5), (4, 5)] {
+        let fine = sums(kt, kf);
+        let w = coarse.0;
+        assert!(
+            (fine.0 - w).abs() < 1e-9 * w,
+            "{kt}×{kf}: Σw {} vs {w}",
+            fine.0
+        );
+        assert!(
+            (fine.1 / fine.0 - coarse.1 / w).norm() < 1e-9,
+            "{kt}×{kf}: centroid"
+        );
+        assert!(
+            (fine.3 / fine.0 - coarse.3 / w).abs() < 1e-12,
+            "{kt}×{kf}: depth"
+        );
+    }
+}
