@@ -1,5 +1,5 @@
 //! A brute-force reference back-end: every tool triangle against every obstacle triangle, with
-//! the same contact per pair ([`crate::slab`]) and the same closest approach
+//! the same contact per pair (`slab.rs`) and the same closest approach
 //! ([`crate::geometry::triangle_pair`]) as [`crate::lod::LodBackend`] at error threshold 0 with
 //! every contact written (`with_max_contacts(None)`). Quadratic in the triangle counts: for tests
 //! on small meshes only.

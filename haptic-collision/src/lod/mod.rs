@@ -16,7 +16,7 @@
 //! larger deviation is split.
 //!
 //! A stopped pair writes one contact: the penalty integrated over the part of the tool piece
-//! that lies over the obstacle piece within `δ` of its plane ([`crate::slab`],
+//! that lies over the obstacle piece within `δ` of its plane (`slab.rs`,
 //! `docs/formulation.md` §7). At two triangles the integral is exact; a coarse pair integrates
 //! over its pieces with the heights shifted and spread by where the surfaces they simplify lie
 //! about them (each node's area-weighted mean and variance of height, `moments.rs`), and counts
