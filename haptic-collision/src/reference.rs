@@ -10,7 +10,7 @@ use haptic_core::NO_FEATURE;
 
 use crate::geometry::{PairContact, triangle_normal, triangle_pair};
 use crate::lod::LodError;
-use crate::lod::query::{Frames, touching_if_crossing};
+use crate::lod::query::{CLOSEST_APPROACH_AREA_M2, Frames, touching_if_crossing};
 use crate::mesh::TriMesh;
 use crate::slab::{HeightOffset, pair_region};
 
@@ -123,7 +123,13 @@ impl CollisionBackend for ReferenceBackend {
             if let Some(pc) = closest
                 && pc.distance < written
             {
-                frames.emit(&touching_if_crossing(pc), NO_FEATURE, NO_FEATURE, 0.0, out)?;
+                frames.emit(
+                    &touching_if_crossing(pc),
+                    NO_FEATURE,
+                    NO_FEATURE,
+                    CLOSEST_APPROACH_AREA_M2,
+                    out,
+                )?;
             }
         }
         Ok(stats)

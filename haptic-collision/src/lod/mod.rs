@@ -22,7 +22,7 @@
 //! about them (each node's area-weighted mean and variance of height, `moments.rs`), and counts
 //! the share of its area that the surface covers of the piece. After the walk, the pairs whose
 //! closest approach could be closer than every contact written are searched exactly, and the
-//! closest approach is written as a contact of no area, so the reported smallest separation is
+//! closest approach is written as a contact of negligible area, so the reported smallest separation is
 //! the exact one of the stopped pieces: when the exact surfaces are apart by `D` with
 //! `ε < D < δ − ε`, it is within `ε` of `D`. At `error_threshold = 0` the walk descends to
 //! triangle pairs and the contacts are exact (the same as

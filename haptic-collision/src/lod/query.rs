@@ -4,6 +4,7 @@ use haptic_core::{Contact, ContactSet, Mat3, NO_FEATURE, Pose, QueryStats, Real,
 
 use super::build::{Hierarchy, Node};
 use super::{LodError, MAX_PIECE_VERTICES};
+use crate::compact::AREA_FLOOR_M2;
 use crate::geometry::{PairContact, convex_polygon_pair};
 use crate::slab::{HeightOffset, pair_region};
 
@@ -305,6 +306,11 @@ pub(crate) fn collide(
     Ok(())
 }
 
+/// The area a closest-approach contact stands for (m²): the compaction's floor, 10⁻¹⁸ m², so
+/// that it weighs nothing beside the regions; not 0, which the clustering reads as "this back-end
+/// does not measure areas" and then weighs every contact of the call alike.
+pub(crate) const CLOSEST_APPROACH_AREA_M2: Real = AREA_FLOOR_M2;
+
 /// A pair's closest approach as a contact: where the polygons cross, touching (depth 0) at the
 /// middle of their separating-axis contact, since the regions carry the force and the
 /// separating-axis depth measures the polygons' sizes rather than how far the tool went in.
@@ -330,8 +336,9 @@ pub(crate) fn touching_if_crossing(pc: PairContact) -> PairContact {
 /// beyond the obstacle piece's edges, outside every region; so the pairs whose lower bound is
 /// below the smallest distance found (a region's nearest point, or a contact's) are searched
 /// exactly, and so is the pair whose region that was: the smallest distance written is then the
-/// exact distance between the stopped pieces (0 where they cross). The contact stands for no
-/// area: it reports the distance without adding to the force the regions integrate.
+/// exact distance between the stopped pieces (0 where they cross). The contact stands for
+/// [`CLOSEST_APPROACH_AREA_M2`]: it reports the distance without adding to the force the regions
+/// integrate.
 ///
 /// # Errors
 /// [`LodError::Core`] for a non-finite contact.
@@ -360,7 +367,7 @@ pub(crate) fn closest_approaches(
             let (a, b) = (&tool.nodes[ia as usize], &obs.nodes[ib as usize]);
             let (len, na) = place_piece(tool, a, f, &mut buf);
             let pc = convex_polygon_pair(&buf[..len], &na, obs.piece_of(b), &b.normal);
-            (touching_if_crossing(pc), 0.0)
+            (touching_if_crossing(pc), CLOSEST_APPROACH_AREA_M2)
         };
         let mut near = found.found_m;
         let mut closest: Option<(PairContact, Real)> = None;
