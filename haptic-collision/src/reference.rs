@@ -104,13 +104,7 @@ impl CollisionBackend for ReferenceBackend {
                     stats.primitive_pairs_tested += 1;
                     let regions = pair_region(&a, b, nb, delta, HeightOffset::NONE);
                     if let Some(r) = regions.region {
-                        let pc = PairContact {
-                            p_a: r.centroid,
-                            p_b: r.centroid + nb * r.depth_m,
-                            n: -nb,
-                            depth: r.depth_m,
-                            distance: -r.depth_m,
-                        };
+                        let pc = r.pair_contact(nb);
                         frames.emit(&pc, ta as u32, tb as u32, r.area_m2, out)?;
                         written = written.min(pc.distance);
                     }

@@ -25,7 +25,7 @@
 
 use haptic_core::{Real, Vec3};
 
-use crate::geometry::plane_basis;
+use crate::geometry::{PairContact, plane_basis};
 use crate::lod::{MAX_PIECE_VERTICES, SurfaceMoments};
 
 /// Most vertices a clipped polygon can have: the tool polygon's, one more per prism wall and per
@@ -75,6 +75,20 @@ pub(crate) struct RegionContact {
     pub centroid: Vec3,
     /// The contact's depth (m): `∫g² / ∫g − δ`, the `g`-weighted mean of `g − δ`.
     pub depth_m: Real,
+}
+
+impl RegionContact {
+    /// As a pair result against an obstacle polygon of unit normal `nb`: `n = −n_b` (out of
+    /// the tool), `p_b = p_a − d n` (on the obstacle polygon's plane, shifted by any offset).
+    pub fn pair_contact(&self, nb: &Vec3) -> PairContact {
+        PairContact {
+            p_a: self.centroid,
+            p_b: self.centroid + nb * self.depth_m,
+            n: -nb,
+            depth: self.depth_m,
+            distance: -self.depth_m,
+        }
+    }
 }
 
 /// The region of a tool polygon over an obstacle polygon (see the module docs).

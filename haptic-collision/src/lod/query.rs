@@ -260,13 +260,7 @@ pub(crate) fn collide(
             };
             let regions = pair_region(&buf[..len], pb, &b.normal, delta, offset);
             if let Some(r) = regions.region {
-                let pc = PairContact {
-                    p_a: r.centroid,
-                    p_b: r.centroid + b.normal * r.depth_m,
-                    n: -b.normal,
-                    depth: r.depth_m,
-                    distance: -r.depth_m,
-                };
+                let pc = r.pair_contact(&b.normal);
                 let (fa, fb, cover) = if leaves {
                     (a.triangle, b.triangle, 1.0)
                 } else {
