@@ -23,7 +23,7 @@
 //! variance ([`Weight`]). Without the spread a flat piece has less variance of depth than its
 //! surface, and the clustering's mean depth, read from `∫g²`, comes out shallower.
 
-use haptic_core::{Real, Vec3};
+use haptic_core::{Real, Vec3, gap_weight_m};
 
 use crate::geometry::{PairContact, plane_basis};
 use crate::lod::{MAX_PIECE_VERTICES, SurfaceMoments};
@@ -169,10 +169,20 @@ pub(crate) fn pair_region(
         return out;
     }
     let c = sums.gx / sums.g;
+    let mut depth_m = sums.g2 / sums.g - delta_m;
+    let mut area_m2 = sums.g * sums.g / sums.g2;
+    // Never nearer than the pieces themselves where they are apart (the offsets deepen the mean,
+    // not the closest approach): the smallest separation reported stays within the pieces'
+    // deviations of the surfaces' (the guarantee of `lod`), the weight `∫g` is kept.
+    let piece_lo = lo - mean;
+    if piece_lo > 0.0 && depth_m > -piece_lo {
+        depth_m = (-piece_lo).max(-delta_m);
+        area_m2 = sums.g / gap_weight_m(depth_m, delta_m);
+    }
     out.region = Some(RegionContact {
-        area_m2: sums.g * sums.g / sums.g2,
+        area_m2,
         centroid: origin + u * c.x + w * c.y + nb * (c.z - mean),
-        depth_m: sums.g2 / sums.g - delta_m,
+        depth_m,
     });
     out
 }
