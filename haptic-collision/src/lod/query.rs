@@ -252,22 +252,19 @@ pub(crate) fn collide(
                 continue;
             }
             stats.primitive_pairs_tested += 1;
-            let leaves = leaf_a && leaf_b;
-            let offset = if leaves {
-                HeightOffset::NONE
-            } else {
-                HeightOffset::of_pieces(tool.moments_of(ia), obs.moments_of(ib), na.dot(&b.normal))
-            };
+            // A leaf's moments are those of a flat triangle (no offset, full cover), so the same
+            // path gives the exact region of two triangles.
+            let (ma, mb) = (tool.moments_of(ia), obs.moments_of(ib));
+            let offset = HeightOffset::of_pieces(ma, mb, na.dot(&b.normal));
             let regions = pair_region(&buf[..len], pb, &b.normal, delta, offset);
             if let Some(r) = regions.region {
                 let pc = r.pair_contact(&b.normal);
-                let (fa, fb, cover) = if leaves {
-                    (a.triangle, b.triangle, 1.0)
+                let (fa, fb) = if leaf_a && leaf_b {
+                    (a.triangle, b.triangle)
                 } else {
-                    let cover = tool.moments_of(ia).cover * obs.moments_of(ib).cover;
-                    (NO_FEATURE, NO_FEATURE, cover)
+                    (NO_FEATURE, NO_FEATURE)
                 };
-                frames.emit(&pc, fa, fb, r.area_m2 * cover, out)?;
+                frames.emit(&pc, fa, fb, r.area_m2 * (ma.cover * mb.cover), out)?;
                 nearest.written(pc.distance);
             }
             if regions.nearest_m.is_finite() {
