@@ -668,3 +668,53 @@ fn a_box_and_its_subdivided_copy_give_the_same_contact_sums() {
         );
     }
 }
+
+/// The penalty the contacts stand for before clustering, `F = Σ a (d + δ) n` and its torque
+/// about the tool origin (per unit stiffness), as `(F, T / r)`.
+fn integrated_penalty(set: &ContactSet, delta: Real, origin: &Vec3, lever: Real) -> [Real; 6] {
+    let (mut f, mut t) = (Vec3::zeros(), Vec3::zeros());
+    for c in set.iter() {
+        let fi = c.n * (c.area_m2 * c.gap_weight_m(delta));
+        f += fi;
+        t += (c.p_a - origin).cross(&fi);
+    }
+    let t = t / lever;
+    [f.x, f.y, f.z, t.x, t.y, t.z]
+}
+
+proptest! {
+    #![proptest_config(ProptestConfig::with_cases(32))]
+
+    /// Compact contacts at threshold 0 give the all-pairs wrench within 5 % (the penalty
+    /// integrated over the contacts, `Σ a (d + δ) n` and its torque, which the clustering's
+    /// representatives sum), on bumpy spheres pressed together, whatever the cap.
+    #[test]
+    fn compact_contacts_give_the_all_pairs_wrench(
+        seed in 0u64..1_000_000,
+        delta in 0.002f64..0.008,
+        press in 0.0f64..1.0,
+        max in 16usize..=256,
+    ) {
+        let tool = bumpy_sphere(3, 0.03, 0.05, seed);
+        let obstacle = bumpy_sphere(3, 0.04, 0.05, seed + 101);
+        let mut rng = Lcg(seed ^ 0x5eed);
+        let dir = Vec3::new(rng.next() - 0.5, rng.next() - 0.5, rng.next() - 0.5).normalize();
+        let mut pose = random_pose(&mut rng, 0.0);
+        pose.position = dir * (0.07 - delta * press);
+        let obstacles = vec![(obstacle, Pose::identity())];
+        let mut all = LodBackend::new(&tool, &obstacles).unwrap().with_max_contacts(None);
+        let mut compact = all.clone().with_max_contacts(Some(max));
+        let params = QueryParams::new(delta, 0.0).unwrap();
+        let (mut a, mut b) = (ContactSet::new(), ContactSet::new());
+        all.query(&pose, &params, &mut a).unwrap();
+        compact.query(&pose, &params, &mut b).unwrap();
+        prop_assert!(b.len() <= max);
+        let r = all.tool_bounding_radius_m();
+        let w0 = integrated_penalty(&a, delta, &pose.position, r);
+        let w = integrated_penalty(&b, delta, &pose.position, r);
+        let norm = |v: &[Real; 6]| v.iter().map(|x| x * x).sum::<Real>().sqrt();
+        let diff: [Real; 6] = std::array::from_fn(|i| w[i] - w0[i]);
+        prop_assert!(norm(&w0) > 0.0, "no contact: {} raw", a.len());
+        prop_assert!(norm(&diff) <= 0.05 * norm(&w0), "{} raw, {} compact: error {}", a.len(), b.len(), norm(&diff) / norm(&w0));
+    }
+}

@@ -326,7 +326,7 @@ pub(super) struct RunResult {
     /// Error per pose, clustered along this run's own chain of warm starts.
     errors_chained: Vec<Real>,
     /// Reference run only: per pose, its contacts clustered cold against its warm chain.
-    cold_errors: Vec<Real>,
+    pub cold_errors: Vec<Real>,
     /// `|F| / |F₀|` per pose.
     force_ratios: Vec<Real>,
 }

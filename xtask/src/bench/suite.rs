@@ -332,6 +332,11 @@ struct SuiteScene {
     speedup_lod_2_5_percent_vs_parry: Real,
     tessellation_error_rel: Option<Real>,
     tessellation_error_rel_p90: Option<Real>,
+    /// The reference's own contacts clustered cold against its chain of warm starts, median
+    /// and p90 of the relative wrench difference: how far two clusterings of the same contacts
+    /// differ on this scene (`collision.json`'s field of the same name).
+    clustering_variability_rel_median: Real,
+    clustering_variability_rel_p90: Real,
 }
 
 /// The worst figure over the scenes, for each goal (as issue 15's acceptance reads them; a NaN
@@ -433,6 +438,8 @@ pub fn run(out: &crate::OutArgs) -> anyhow::Result<()> {
             speedup_lod_2_5_percent_vs_parry: m.speedup_2_5,
             tessellation_error_rel: t.map(|t| t.0),
             tessellation_error_rel_p90: t.map(|t| t.1),
+            clustering_variability_rel_median: collision::quantile(&m.reference.cold_errors, 0.5),
+            clustering_variability_rel_p90: collision::quantile(&m.reference.cold_errors, 0.9),
         });
         for r in &m.rows {
             rows.push(SuiteRow {
