@@ -17,6 +17,9 @@
 //!   |W_coarse|` of the reference wrenches (LOD at threshold 0), `W = (F, T / r)`; its median
 //!   over the poses is reported on both tessellations' rows. Each reference clusters along its
 //!   own chain of warm starts, so the figure includes the clustering's own variability.
+//! - `clustering_variability_rel_*` per scene: the reference's contacts clustered cold against
+//!   its chain of warm starts. No compact answer can be expected to come closer to the reference
+//!   than two clusterings of the reference's own contacts come to each other.
 //! - Output: `DIR/suite.json` (every row with its scene, the fields of `collision.json`'s rows,
 //!   and `tessellation_error_rel`; per scene its builds and speed-up; `suite_worst`, the worst
 //!   figure over the scenes for each of issue 15's goals) and `DIR/suite_<scene>.svg`.
