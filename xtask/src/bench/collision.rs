@@ -186,7 +186,7 @@ pub(super) fn measure(scene: &Scene, passes: usize) -> anyhow::Result<SceneMeasu
 /// Runs the benchmark on one scene, or the suite (`--suite`).
 pub fn run(args: &super::CollisionArgs, out: &crate::OutArgs) -> anyhow::Result<()> {
     if args.suite {
-        return super::suite::run(out);
+        return super::suite::run(out).map(|_| ());
     }
     let dir = out.dir("collision")?;
     let scene = load_scene(args, POSES)?;

@@ -28,6 +28,9 @@
 //! - `free_space_contact_step_median_s`: the contact stage in free space: `LodBackend::query`
 //!   with the upper jaw 1 m above the lower one (the broad phase rejects it), then the empty-set
 //!   handling of `haptic_runtime`'s contact stage (clear the representatives, no model).
+//! - `suite_worst`: the worst figure over the generalization suite's scenes for each of issue
+//!   15's goals (`cargo xtask bench collision --suite`, run last, `--quick` with this report;
+//!   its `suite.json` lands beside `perf.json` with `--out`).
 
 use std::collections::BTreeMap;
 use std::hint::black_box;
@@ -180,6 +183,7 @@ fn cpu_model() -> String {
 
 /// Runs the performance report.
 pub fn run(out: &crate::OutArgs) -> anyhow::Result<()> {
+    let out_args = out;
     let quick = out.quick;
     let dir = out.dir("bench")?;
     let step_samples = if quick { 50_000 } else { 500_000 };
@@ -382,6 +386,13 @@ pub fn run(out: &crate::OutArgs) -> anyhow::Result<()> {
     let free_med = median(&mut free_times);
     println!("free-space contact step: median {:.1} ns", free_med * 1e9);
 
+    // The generalization suite, last: its worst figures are issue 15's goals.
+    println!(
+        "generalization suite ({}):",
+        if quick { "quick" } else { "full" }
+    );
+    let suite_worst = super::suite::run(out_args)?;
+
     let report = PerfReport {
         haptic_step: haptic,
         cluster_50_to_5_median_s: cluster_median,
@@ -415,6 +426,7 @@ pub fn run(out: &crate::OutArgs) -> anyhow::Result<()> {
         build_jaws_bytes: build_bytes,
         build_jaws_parry_s: parry_build_s,
         free_space_contact_step_median_s: free_med,
+        suite_worst,
         setup: PerfSetup {
             cpu: cpu_model(),
             cpus: std::thread::available_parallelism()
@@ -502,5 +514,9 @@ struct PerfReport {
     build_jaws_bytes: usize,
     build_jaws_parry_s: Real,
     free_space_contact_step_median_s: Real,
+    /// The worst figure over the scenes of `cargo xtask bench collision --suite` (run as part of
+    /// this report, `--quick` with it; its `suite.json` is written beside, or to
+    /// `target/xtask/collision` without `--out`).
+    suite_worst: super::suite::SuiteWorst,
     setup: PerfSetup,
 }

@@ -345,8 +345,8 @@ struct SuiteScene {
 
 /// The worst figure over the scenes, for each goal (as issue 15's acceptance reads them; a NaN
 /// anywhere makes its figure NaN, written `null`).
-#[derive(Serialize)]
-struct SuiteWorst {
+#[derive(Serialize, Clone, Copy, Debug)]
+pub(super) struct SuiteWorst {
     /// LOD at 2.5 %: the larger of the median errors seeded from the reference's
     /// representatives and along the run's own chain of warm starts.
     wrench_error_rel_median: Real,
@@ -375,8 +375,9 @@ struct SuiteReport<'a> {
     suite_worst: SuiteWorst,
 }
 
-/// Runs the suite.
-pub fn run(out: &crate::OutArgs) -> anyhow::Result<()> {
+/// Runs the suite, writes `suite.json` and the charts, and returns its worst figures (which
+/// `cargo xtask bench` also writes into `perf.json`).
+pub(super) fn run(out: &crate::OutArgs) -> anyhow::Result<SuiteWorst> {
     let started = Instant::now();
     let dir = out.dir("collision")?;
     let (n, passes) = if out.quick {
@@ -569,7 +570,8 @@ pub fn run(out: &crate::OutArgs) -> anyhow::Result<()> {
         rows,
         suite_worst: worst,
     };
-    common::write_json(&dir.join("suite.json"), &report)
+    common::write_json(&dir.join("suite.json"), &report)?;
+    Ok(worst)
 }
 
 /// The generated shapes' names, as the `'static` strings their entries carry.
