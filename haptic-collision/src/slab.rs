@@ -120,27 +120,43 @@ pub(crate) fn pair_region(
         let d = v - origin;
         [u.dot(&d), w.dot(&d), nb.dot(&d) + mean]
     };
-    let mut poly: Poly = ([[0.0; 3]; MAX_CLIPPED], 0);
-    for v in a.iter().take(MAX_PIECE_VERTICES) {
-        poly.0[poly.1] = to_local(v);
-        poly.1 += 1;
+    let n = a.len().min(MAX_PIECE_VERTICES);
+    let mut local = [[0.0; 3]; MAX_PIECE_VERTICES];
+    for (l, v) in local.iter_mut().zip(&a[..n]) {
+        *l = to_local(v);
     }
+    // The obstacle polygon in the plane's coordinates, once.
+    let m = b.len().min(MAX_PIECE_VERTICES);
+    let mut corners = [[0.0; 2]; MAX_PIECE_VERTICES];
+    for (c, v) in corners.iter_mut().zip(&b[..m]) {
+        let d = v - origin;
+        *c = [u.dot(&d), w.dot(&d)];
+    }
+    // Inside an edge: to its left (counter-clockwise polygon).
+    let inside = |i: usize, p: &[Real; 3]| {
+        let (p0, p1) = (corners[i], corners[(i + 1) % m]);
+        (p1[0] - p0[0]) * (p[1] - p0[1]) - (p1[1] - p0[1]) * (p[0] - p0[0])
+    };
+    // Most pairs that reach here lie beside each other, not one over the other: the whole tool
+    // polygon is outside one edge, and the clips below would end empty.
+    if (0..m).any(|i| local[..n].iter().all(|p| inside(i, p) < 0.0)) {
+        return PairRegion {
+            region: None,
+            nearest_m: Real::INFINITY,
+        };
+    }
+    let mut poly: Poly = ([[0.0; 3]; MAX_CLIPPED], n);
+    poly.0[..n].copy_from_slice(&local[..n]);
     let s = offset.half_width_m.max(0.0);
     let mut tmp: Poly = ([[0.0; 3]; MAX_CLIPPED], 0);
-    // The slab first (most pairs end there), then the prism's walls.
+    // The slab first, then the prism's walls.
     clip(&poly, &mut tmp, |p| delta_m + s - p[2]);
     clip(&tmp, &mut poly, |p| delta_m + p[2]);
-    let m = b.len();
     for i in 0..m {
         if poly.1 == 0 {
             break;
         }
-        let (p0, p1) = (to_local(&b[i]), to_local(&b[(i + 1) % m]));
-        let (ex, ey) = (p1[0] - p0[0], p1[1] - p0[1]);
-        // Inside: to the left of the edge (counter-clockwise polygon).
-        clip(&poly, &mut tmp, |p| {
-            ex * (p[1] - p0[1]) - ey * (p[0] - p0[0])
-        });
+        clip(&poly, &mut tmp, |p| inside(i, p));
         std::mem::swap(&mut poly, &mut tmp);
     }
     let mut out = PairRegion {

@@ -74,9 +74,45 @@ impl Frames {
     }
 }
 
-/// Whether a tool node (centre `ca` already in the obstacle frame) and an obstacle node are farther apart than `delta` (conservative: spheres and slabs).
+/// A tool node's bounding sphere centre and slab in the obstacle frame, placed once for the run
+/// of pairs that share the tool node (the walk descends the obstacle's node in place).
+#[derive(Debug, Clone, Copy)]
+struct PlacedNode {
+    index: u32,
+    center: Vec3,
+    normal: Vec3,
+    /// `normal · plane_point`: where the slab's mid-plane lies along `normal`.
+    offset: Real,
+}
+
+impl PlacedNode {
+    const NONE: Self = Self {
+        index: u32::MAX,
+        center: Vec3::new(0.0, 0.0, 0.0),
+        normal: Vec3::new(0.0, 0.0, 0.0),
+        offset: 0.0,
+    };
+
+    /// Node `index` (`a`) placed by `frames`, unless it is the one already placed.
+    #[inline]
+    fn place(&mut self, index: u32, a: &Node, frames: &Frames) {
+        if self.index != index {
+            let normal = frames.rot * a.normal;
+            *self = Self {
+                index,
+                center: frames.point(&a.center),
+                normal,
+                offset: normal.dot(&frames.point(&a.plane_point)),
+            };
+        }
+    }
+}
+
+/// Whether a tool node (placed in the obstacle frame) and an obstacle node are farther apart
+/// than `delta` (conservative: spheres and slabs).
 #[inline]
-fn culled(a: &Node, ca: &Vec3, b: &Node, frames: &Frames, delta: Real) -> bool {
+fn culled(a: &Node, placed: &PlacedNode, b: &Node, delta: Real) -> bool {
+    let ca = &placed.center;
     let d = ca - b.center;
     let reach = a.radius + b.radius + delta;
     if d.norm_squared() > reach * reach {
@@ -86,9 +122,7 @@ fn culled(a: &Node, ca: &Vec3, b: &Node, frames: &Frames, delta: Real) -> bool {
         return true;
     }
     // The tool's slab, in the obstacle frame.
-    let na = frames.rot * a.normal;
-    let pa = frames.point(&a.plane_point);
-    na.dot(&(b.center - pa)).abs() - a.half_thickness - b.radius > delta
+    (placed.normal.dot(&b.center) - placed.offset).abs() - a.half_thickness - b.radius > delta
 }
 
 /// The tool's piece of `a` in the obstacle frame, into `buf`; returns its length and normal.
@@ -229,12 +263,13 @@ pub(crate) fn collide(
     let delta = walk.delta_m;
     let mut buf = [Vec3::zeros(); MAX_PIECE_VERTICES];
     let nearest = &mut nearest[obstacle as usize];
+    let mut placed = PlacedNode::NONE;
     while let Some((ia, ib)) = stack.pop() {
         let a = &tool.nodes[ia as usize];
         let b = &obs.nodes[ib as usize];
         stats.node_pairs_tested += 1;
-        let ca = frames.point(&a.center);
-        if culled(a, &ca, b, frames, delta) {
+        placed.place(ia, a, frames);
+        if culled(a, &placed, b, delta) {
             continue;
         }
         let (leaf_a, leaf_b) = (a.is_leaf(), b.is_leaf());
@@ -270,8 +305,10 @@ pub(crate) fn collide(
             if regions.nearest_m.is_finite() {
                 nearest.found(regions.nearest_m, ia, ib);
             }
-            if regions.nearest_m > 0.0 {
-                // Its closest approach may lie outside the region (beyond an edge of `b`).
+            // Its closest approach may lie outside the region (beyond an edge of `b`), unless
+            // even its lower bound is beyond a distance already found (which only decreases, so
+            // `closest_approaches` would skip it).
+            if regions.nearest_m > 0.0 && gap < nearest.found_m {
                 apart.push((gap, obstacle, ia, ib));
             }
             continue;
