@@ -506,15 +506,12 @@ mod tests {
 
     #[test]
     fn a_curved_patch_keeps_its_force_and_splits_along_its_curvature() {
-        // A 60° cap of a 1 cm sphere, 900 contacts, merged into at most 32: the normals of a
+        // A cap of ±0.5 rad of a 1 cm sphere, 900 contacts, merged into at most 32: the normals of a
         // cell disagree, so each merged cell is two contacts whose normals keep `Σ w n`.
         let mut set = ContactSet::new();
         for i in 0..30 {
             for j in 0..30 {
-                let (u, v) = (
-                    (i as Real / 29.0 - 0.5) * 1.0,
-                    (j as Real / 29.0 - 0.5) * 1.0,
-                );
+                let (u, v) = (i as Real / 29.0 - 0.5, j as Real / 29.0 - 0.5);
                 let n = Vec3::new(u.sin(), v.sin(), 1.0).normalize();
                 set.push(contact(n * 0.01, n, 2e-4, 1e-7));
             }
