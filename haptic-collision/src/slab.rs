@@ -101,6 +101,14 @@ pub(crate) struct PairRegion {
     pub nearest_m: Real,
 }
 
+impl PairRegion {
+    /// No part of `A` over `B` within reach.
+    const NONE: Self = Self {
+        region: None,
+        nearest_m: Real::INFINITY,
+    };
+}
+
 /// The region of tool polygon `a` over obstacle polygon `b` (unit normal `nb`, `b`
 /// counter-clockwise about it) within `delta_m` of `b`'s plane, as one contact (see the module
 /// docs). `offset` says where the surfaces the polygons simplify lie about them
@@ -140,10 +148,7 @@ pub(crate) fn pair_region(
     // Most pairs that reach here lie beside each other, not one over the other: the whole tool
     // polygon is outside one edge, and the clips below would end empty.
     if (0..m).any(|i| local[..n].iter().all(|p| inside(i, p) < 0.0)) {
-        return PairRegion {
-            region: None,
-            nearest_m: Real::INFINITY,
-        };
+        return PairRegion::NONE;
     }
     let mut poly: Poly = ([[0.0; 3]; MAX_CLIPPED], n);
     poly.0[..n].copy_from_slice(&local[..n]);
@@ -159,10 +164,7 @@ pub(crate) fn pair_region(
         clip(&poly, &mut tmp, |p| inside(i, p));
         std::mem::swap(&mut poly, &mut tmp);
     }
-    let mut out = PairRegion {
-        region: None,
-        nearest_m: Real::INFINITY,
-    };
+    let mut out = PairRegion::NONE;
     if poly.1 < 3 {
         return out;
     }
