@@ -50,7 +50,6 @@ mod build;
 mod cache;
 mod moments;
 pub(crate) mod query;
-mod split;
 
 use std::time::Instant;
 
