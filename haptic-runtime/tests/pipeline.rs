@@ -579,23 +579,6 @@ fn a_light_tool_on_stiff_slow_contacts_is_not_thrown() {
     }
 }
 
-/// A 64-bit LCG, uniform in `[0, 1)`.
-struct Lcg(u64);
-
-impl Lcg {
-    fn uniform(&mut self) -> f64 {
-        self.0 = self
-            .0
-            .wrapping_mul(6_364_136_223_846_793_005)
-            .wrapping_add(1_442_695_040_888_963_407);
-        (self.0 >> 11) as f64 / (1u64 << 53) as f64
-    }
-
-    fn log_uniform(&mut self, lo: f64, hi: f64) -> f64 {
-        (lo.ln() + self.uniform() * (hi / lo).ln()).exp()
-    }
-}
-
 /// Which runs of the stiff, slow-update corner throw a light tool moves with any change to the
 /// contacts (the test above pins two), so a change to the contact thread is measured on many:
 /// 200 random runs of the corner on fixed frames, each with its own hand path (masses 0.5–3 g,
@@ -608,7 +591,7 @@ fn light_tools_on_stiff_slow_contacts_are_rarely_thrown() {
     let _one_at_a_time = common::one_at_a_time();
     let base = spoon_cup().assemble().unwrap();
     let backend = LodBackend::new(&base.tool_mesh, &base.obstacles).unwrap();
-    let mut rng = Lcg(12_345);
+    let mut rng = haptic_test_support::rng::Lcg(12_345);
     let runs = 200;
     let mut thrown = Vec::new();
     for _ in 0..runs {
@@ -617,14 +600,14 @@ fn light_tools_on_stiff_slow_contacts_are_rarely_thrown() {
             rng.log_uniform(50.0, 300.0),
             rng.log_uniform(15_000.0, 50_000.0),
             rng.log_uniform(10.0, 100.0),
-            rng.uniform() < 0.5,
+            rng.next() < 0.5,
         );
         let path = HandPath {
-            depth_m: 0.06 + 0.015 * rng.uniform(),
-            out_m: 0.02 + 0.03 * rng.uniform(),
-            back_m: 0.02 + 0.03 * rng.uniform(),
-            heading_rad: 0.6 * rng.uniform() - 0.3,
-            down_s: 0.5 + 0.2 * rng.uniform(),
+            depth_m: 0.06 + 0.015 * rng.next(),
+            out_m: 0.02 + 0.03 * rng.next(),
+            back_m: 0.02 + 0.03 * rng.next(),
+            heading_rad: 0.6 * rng.next() - 0.3,
+            down_s: 0.5 + 0.2 * rng.next(),
         };
         let (resets, failures) = stiff_slow_run(
             &base,

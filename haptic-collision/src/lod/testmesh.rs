@@ -6,18 +6,7 @@ use haptic_core::{Real, Vec3};
 
 use crate::mesh::{DegeneratePolicy, TriMesh};
 
-/// A small deterministic generator (64-bit LCG), uniform in `[0, 1)`.
-pub struct Lcg(pub u64);
-
-impl Lcg {
-    pub fn next(&mut self) -> Real {
-        self.0 = self
-            .0
-            .wrapping_mul(6_364_136_223_846_793_005)
-            .wrapping_add(1_442_695_040_888_963_407);
-        (self.0 >> 11) as Real / (1u64 << 53) as Real
-    }
-}
+pub use haptic_test_support::rng::Lcg;
 
 pub fn mesh(vertices: Vec<Vec3>, triangles: Vec<[u32; 3]>) -> TriMesh {
     TriMesh::new(vertices, triangles, DegeneratePolicy::Reject)
