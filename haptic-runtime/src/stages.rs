@@ -3,10 +3,12 @@
 
 use haptic_cluster::Clusterer;
 use haptic_core::{
-    CollisionBackend, ContactModel, ContactSet, Device, DeviceLimits, DeviceState, Integrator,
-    LinearizationMode, LinearizedContact, QueryParams, Real, RigidBody, ToolState, Wrench,
+    CollisionBackend, ContactModel, ContactSet, Device, DeviceLimits, DeviceState,
+    IntegrationError, Integrator, LinearizationMode, LinearizedContact, QueryParams, Real,
+    RigidBody, ToolState, Wrench,
     device::{Error as _, ErrorKind},
 };
+use haptic_dynamics::LinearizedBackwardEuler;
 use haptic_dynamics::forces::HapticForces;
 
 use crate::telemetry::DurationHistogram;
@@ -255,6 +257,9 @@ pub struct HapticStats {
     pub zero_force_steps: u64,
     /// Integration failures (zero force sent, tool put back at the handle).
     pub solver_failures: u64,
+    /// Steps whose Newton solve did not converge and that took the semi-implicit step instead
+    /// ([`SafetyConfig::semi_implicit_fallback`]); not counted in `solver_failures`.
+    pub solver_fallbacks: u64,
     /// Steps with a stale (faded) contact model.
     pub stale_steps: u64,
     /// Contact updates that arrived late: at the tool's state when they were received, some
@@ -299,6 +304,15 @@ pub struct SafetyConfig {
     /// would apply the whole penalty force of that depth in one step, which throws a light tool
     /// out. Models that arrive in time switch at once (no added latency). On by default.
     pub contact_blend: bool,
+    /// A step whose Newton solve does not converge ([`IntegrationError::NotConverged`], from
+    /// [`haptic_dynamics::NewtonBackwardEuler`]) takes the semi-implicit backward Euler step
+    /// from the same state instead ([`LinearizedBackwardEuler`], the paper's method, with the
+    /// material Jacobian), counted in [`HapticStats::solver_fallbacks`]; off, such a step sends
+    /// zero force and puts the tool back at the handle. Damped Newton can cycle where a contact
+    /// reaches its cap or switches off, and a light tool on stiff contacts meets such kinks
+    /// often; the semi-implicit step is stable there (`docs/stability.md`). Other failures (a
+    /// non-finite state or force, a singular system) still send zero force. On by default.
+    pub semi_implicit_fallback: bool,
 }
 
 impl Default for SafetyConfig {
@@ -309,6 +323,7 @@ impl Default for SafetyConfig {
             divergence_bound_m: 0.5,
             passivity_controller: false,
             contact_blend: true,
+            semi_implicit_fallback: true,
         }
     }
 }
@@ -482,19 +497,28 @@ impl<I: Integrator, D: Device> HapticStage<I, D> {
             self.forces.previous_contact.yield_beyond_reach(&y, &kin);
         }
         // 4. Solve for the new state.
-        let new_state =
+        let stepped =
             match self
                 .integrator
                 .step(&self.body, &self.tool, now_s, dt_s, &mut self.forces)
             {
-                Ok(s) if s.is_finite() => s,
-                _ => {
-                    // The state cannot be advanced from here: put the tool back at the handle,
-                    // at rest, so that the next step starts from a sane state.
-                    self.tool = self.forces.coupling.tool_at_handle();
-                    return self.zero_force_step(true);
+                Err(IntegrationError::NotConverged { .. })
+                    if self.safety.semi_implicit_fallback =>
+                {
+                    self.stats.solver_fallbacks += 1;
+                    self.semi_implicit_step(now_s, dt_s)
                 }
+                other => other,
             };
+        let new_state = match stepped {
+            Ok(s) if s.is_finite() => s,
+            _ => {
+                // The state cannot be advanced from here: put the tool back at the handle,
+                // at rest, so that the next step starts from a sane state.
+                self.tool = self.forces.coupling.tool_at_handle();
+                return self.zero_force_step(true);
+            }
+        };
         let quat_err = (new_state.q.coords.norm() - 1.0).abs();
         self.stats.max_quat_norm_error = self.stats.max_quat_norm_error.max(quat_err);
         self.tool = new_state;
@@ -566,6 +590,23 @@ impl<I: Integrator, D: Device> HapticStage<I, D> {
         }
         let total = stats.port_energy_j[0] + stats.port_energy_j[1];
         stats.min_port_energy_j = stats.min_port_energy_j.min(total);
+    }
+
+    /// The semi-implicit backward Euler step from the current state, with the material
+    /// Jacobian it asks for ([`SafetyConfig::semi_implicit_fallback`]).
+    fn semi_implicit_step(
+        &mut self,
+        now_s: Real,
+        dt_s: Real,
+    ) -> Result<ToolState, IntegrationError> {
+        let mut semi_implicit = LinearizedBackwardEuler;
+        let kind = std::mem::replace(
+            &mut self.forces.jacobian_kind,
+            semi_implicit.jacobian_kind(),
+        );
+        let stepped = semi_implicit.step(&self.body, &self.tool, now_s, dt_s, &mut self.forces);
+        self.forces.jacobian_kind = kind;
+        stepped
     }
 
     fn zero_force_step(&mut self, solver_failure: bool) -> Result<StepOutcome, DeviceFailure> {

@@ -296,6 +296,10 @@ pub struct Summary {
     pub zero_force_steps: u64,
     /// Integration failures among those.
     pub solver_failures: u64,
+    /// Steps whose Newton solve did not converge and that took the semi-implicit step instead
+    /// (`SafetyConfig::semi_implicit_fallback`); force stayed on.
+    #[serde(default)]
+    pub solver_fallbacks: u64,
     /// Contact model or back-end errors (that update was dropped).
     pub contact_errors: u64,
     /// Steps during which the contact model was older than the timeout and faded.
@@ -367,8 +371,8 @@ impl std::fmt::Display for Summary {
         )?;
         writeln!(
             f,
-            "safety        {} zero-force steps (NaN or failed solve), {} solver failures, {} contact errors",
-            s.zero_force_steps, s.solver_failures, s.contact_errors
+            "safety        {} zero-force steps (NaN or failed solve), {} solver failures ({} Newton steps fell back to semi-implicit), {} contact errors",
+            s.zero_force_steps, s.solver_failures, s.solver_fallbacks, s.contact_errors
         )?;
         if s.mode == RunMode::RealTime {
             writeln!(

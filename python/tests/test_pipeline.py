@@ -28,6 +28,7 @@ DETERMINISTIC_KEYS = (
     "saturation_events",
     "zero_force_steps",
     "solver_failures",
+    "solver_fallbacks",
     "contact_errors",
     "contact_stale_steps",
 )

@@ -220,6 +220,12 @@ impl<I: Integrator, B: CollisionBackend, C: ContactModel, D: Device> Pipeline<I,
                 h.solver_failures
             ));
         }
+        if h.solver_fallbacks > 0 {
+            incidents.push(format!(
+                "{} Newton solves did not converge: those steps took the semi-implicit step",
+                h.solver_fallbacks
+            ));
+        }
         if h.zero_force_steps > h.solver_failures {
             incidents.push(format!(
                 "{} device readings were NaN or invalid: zero force sent",
@@ -253,6 +259,7 @@ impl<I: Integrator, B: CollisionBackend, C: ContactModel, D: Device> Pipeline<I,
             saturation_events: h.saturation_events,
             zero_force_steps: h.zero_force_steps,
             solver_failures: h.solver_failures,
+            solver_fallbacks: h.solver_fallbacks,
             contact_errors: c.errors,
             contact_stale_steps: h.stale_steps,
             late_contact_updates: h.late_contact_updates,

@@ -591,8 +591,8 @@ class Run:
     ``duration_s``, ``haptic_steps``, ``haptic_rate_hz``, ``step_p50_s``, ...,
     ``contact_updates``, ``raw_contact_count_max``, ``cluster_count_max``,
     ``max_penetration_m``, ``max_coupling_deviation_m``, ``max_force_n``,
-    ``saturation_events``, ``zero_force_steps``, ``solver_failures``, ``contact_errors``,
-    ``incidents``, ...)."""
+    ``saturation_events``, ``zero_force_steps``, ``solver_failures``, ``solver_fallbacks``,
+    ``contact_errors``, ``incidents``, ...)."""
     summary_text: str
     """The summary as ``cargo xtask demo`` prints it."""
 
