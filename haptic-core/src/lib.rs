@@ -120,7 +120,7 @@ pub mod state;
 pub use body::RigidBody;
 pub use collision::{CollisionBackend, QueryParams, QueryStats};
 pub use contact::{Contact, ContactSet, NO_FEATURE, gap_weight_m};
-pub use contact_frame::FixedFrame;
+pub use contact_frame::{FixedFrame, YIELD_MARGIN};
 pub use contact_model::{
     ContactModel, ContactTangent, LinearizationMode, LinearizedContact, MAX_REPRESENTATIVES,
 };

