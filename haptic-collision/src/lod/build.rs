@@ -2,7 +2,8 @@
 //! level-of-detail hierarchy (after Otaduy & Lin 2003, adapted; see `docs/decisions.md`).
 //!
 //! The tree is binary, built top-down by splitting the triangles at the median centroid along the
-//! longest axis; every leaf holds one triangle. Every node carries
+//! longest axis, or along a crease of the surface where that leaves flatter children
+//! (`split.rs`); every leaf holds one triangle. Every node carries
 //! - a bounding sphere and a bounding slab (a plane with a half-thickness) of the triangles below
 //!   it, both in the mesh frame and both conservative (used for culling);
 //! - its simplified convex piece: a planar convex polygon of at most
@@ -18,6 +19,7 @@ use rayon::prelude::*;
 
 use super::MAX_PIECE_VERTICES;
 use super::moments::{SurfaceMoments, surface_moments};
+use super::split::{SplitScratch, Triangles};
 use crate::geometry::{
     closest_point_on_polygon_2d, plane_basis, point_polygon_distance, triangle_normal,
 };
@@ -157,6 +159,16 @@ impl Hierarchy {
             .collect();
         let n = tris.len();
         let centroids: Vec<Vec3> = tris.iter().map(|t| (t[0] + t[1] + t[2]) / 3.0).collect();
+        let area_normals: Vec<Vec3> = tris
+            .iter()
+            .map(|t| (t[1] - t[0]).cross(&(t[2] - t[0])))
+            .collect();
+        let triangles = Triangles {
+            corners: &tris,
+            centroids: &centroids,
+            area_normals: &area_normals,
+        };
+        let mut split_scratch = SplitScratch::default();
         let mut perm: Vec<u32> = (0..n as u32).collect();
         let mut nodes: Vec<Node> = Vec::with_capacity(2 * n);
         let mut ranges: Vec<(u32, u32)> = Vec::with_capacity(2 * n);
@@ -185,18 +197,7 @@ impl Hierarchy {
             ranges.push((lo, hi));
             if hi - lo > 1 {
                 let slice = &mut perm[lo as usize..hi as usize];
-                let (mut bmin, mut bmax) =
-                    (Vec3::repeat(Real::INFINITY), Vec3::repeat(-Real::INFINITY));
-                for &t in slice.iter() {
-                    bmin = bmin.inf(&centroids[t as usize]);
-                    bmax = bmax.sup(&centroids[t as usize]);
-                }
-                let axis = (bmax - bmin).imax();
-                let mid = slice.len() / 2;
-                slice.select_nth_unstable_by(mid, |&a, &b| {
-                    centroids[a as usize][axis].total_cmp(&centroids[b as usize][axis])
-                });
-                let m = lo + mid as u32;
+                let m = lo + triangles.split(slice, &mut split_scratch) as u32;
                 // Right is processed after left (stack): push right first, remember the parent.
                 todo.push((m, hi, Some(index), level + 1));
                 todo.push((lo, m, None, level + 1));

@@ -27,8 +27,9 @@ const MAGIC: &[u8; 10] = b"HAPTICLOD\0";
 pub const FORMAT_VERSION: u32 = 1;
 /// What the build does, in words: part of every key, so that a change to the build (a new
 /// bound, a new piece) makes old files another build's. Change it with the build.
-const BUILD: &str = "haptic-collision lod build 1: median split on centroids, planar convex \
-                     pieces of at most MAX_PIECE_VERTICES, slab and deviation bounds";
+const BUILD: &str = "haptic-collision lod build 2: median split on centroids or cut along the \
+                     normals' spread (split.rs), planar convex pieces of at most \
+                     MAX_PIECE_VERTICES, slab and deviation bounds";
 
 /// A saved hierarchy could not be read.
 #[derive(Debug, thiserror::Error)]
@@ -99,10 +100,17 @@ pub fn hierarchy_key(mesh: &TriMesh) -> u64 {
         super::build::POLY2_CAP,
         super::build::MAX_CANDIDATES,
         super::build::MAX_REGIONS,
+        super::split::MIN_SHARE,
         mesh.vertices().len(),
         mesh.triangles().len(),
     ] {
         h.eat(&(c as u64).to_le_bytes());
+    }
+    for c in [
+        super::split::CREASE_ANGLE_RAD,
+        super::split::ORIENTATION_GAIN,
+    ] {
+        h.eat(&c.to_le_bytes());
     }
     for v in mesh.vertices() {
         for c in v.iter() {

@@ -50,6 +50,7 @@ mod build;
 mod cache;
 mod moments;
 pub(crate) mod query;
+mod split;
 
 use std::time::Instant;
 

@@ -43,6 +43,8 @@ fn samples(t: &[Vec3; 3], k: usize, out: &mut Vec<Vec3>) {
 fn meshes_for_tests() -> Vec<TriMesh> {
     vec![
         cuboid(Vec3::new(0.03, 0.02, 0.01)),
+        // Creases between fine faces: the build cuts along them (`split.rs`).
+        grid_box(Vec3::new(0.03, 0.02, 0.01), 5),
         bumpy_sphere(2, 0.05, 0.0, 1),
         bumpy_sphere(2, 0.04, 0.05, 7),
         {

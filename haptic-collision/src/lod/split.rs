@@ -1,0 +1,294 @@
+//! How the build divides a node's triangles between its two children.
+//!
+//! Two candidates, scored by how flat their children are (the larger of the two children's
+//! thicknesses along their own area-weighted normals, which bounds how far a planar piece can be
+//! from them):
+//! - **by position**: the median centroid along the longest axis of the centroids' box, which
+//!   halves the node's extent and so, on a smooth surface, quarters its thickness;
+//! - **by orientation**: the triangles sorted along the direction in which their normals spread
+//!   most, cut at the widest gap of that order, when that gap is a crease (every normal on one
+//!   side at least [`CREASE_ANGLE_RAD`] from every normal on the other): a box's sides, a
+//!   thread's two flanks, a peg's wall and its end.
+//!
+//! The cut along a crease is taken when its children are less than half as thick as the
+//! position split's. On creased, CAD-like parts each face then gets nodes of its own high in
+//! the tree, whose pieces are exact (deviation 0 on a planar face), so the walk stops there
+//! instead of descending to the triangles; on smooth, organic surfaces there are few creases
+//! and the tree is mostly the position split's. Both candidates are balanced enough
+//! ([`MIN_SHARE`]) for the tree's depth to stay logarithmic in practice.
+
+use haptic_core::{Mat3, Real, Vec3};
+
+/// A cut by orientation must leave at least `1 / MIN_SHARE` of the node's triangles on each
+/// side, so that the tree's depth stays logarithmic in practice.
+pub(super) const MIN_SHARE: usize = 16;
+
+/// A cut by orientation is a crease only where every normal on one side is at least this far
+/// in angle from every normal on the other: 30°, the usual feature angle of CAD and mesh tools
+/// (smooth shading and feature-edge extraction). Finer turns of the normals are a curved
+/// surface's, which the position split flattens better.
+pub(super) const CREASE_ANGLE_RAD: Real = std::f64::consts::PI / 6.0;
+
+/// The orientation split is taken only when its children are thinner than this fraction of the
+/// position split's.
+pub(super) const ORIENTATION_GAIN: Real = 0.5;
+
+/// What the split reads of each triangle (by source index).
+pub(super) struct Triangles<'a> {
+    /// The three corners.
+    pub corners: &'a [[Vec3; 3]],
+    /// The centroids.
+    pub centroids: &'a [Vec3],
+    /// `(b − a) × (c − a)`: along the normal, twice the area long.
+    pub area_normals: &'a [Vec3],
+}
+
+impl Triangles<'_> {
+    /// Thickness (m) of `tris` along their area-weighted mean normal; infinite when that normal
+    /// is undefined (the triangles' normals cancel).
+    fn thickness(&self, tris: &[u32]) -> Real {
+        let (mut sum, mut len) = (Vec3::zeros(), 0.0);
+        for &t in tris {
+            let an = &self.area_normals[t as usize];
+            sum += an;
+            len += an.norm();
+        }
+        let norm = sum.norm();
+        if !(norm > 1e-9 * len && norm > 0.0) {
+            return Real::INFINITY;
+        }
+        let n = sum / norm;
+        let (mut lo, mut hi) = (Real::INFINITY, Real::NEG_INFINITY);
+        for &t in tris {
+            for v in &self.corners[t as usize] {
+                let h = n.dot(v);
+                lo = lo.min(h);
+                hi = hi.max(h);
+            }
+        }
+        hi - lo
+    }
+
+    /// The larger thickness of the two parts of `tris` cut at `m`.
+    fn score(&self, tris: &[u32], m: usize) -> Real {
+        self.thickness(&tris[..m]).max(self.thickness(&tris[m..]))
+    }
+
+    /// Reorders `tris` (at least two) into the median split by position; returns the cut.
+    fn by_position(&self, tris: &mut [u32]) -> usize {
+        let (mut lo, mut hi) = (Vec3::repeat(Real::INFINITY), Vec3::repeat(-Real::INFINITY));
+        for &t in tris.iter() {
+            lo = lo.inf(&self.centroids[t as usize]);
+            hi = hi.sup(&self.centroids[t as usize]);
+        }
+        let axis = (hi - lo).imax();
+        let mid = tris.len() / 2;
+        tris.select_nth_unstable_by(mid, |&a, &b| {
+            self.centroids[a as usize][axis].total_cmp(&self.centroids[b as usize][axis])
+        });
+        mid
+    }
+
+    /// Reorders `tris` along the normals' direction of largest spread and returns the cut at
+    /// the widest gap leaving at least `len / MIN_SHARE` triangles on each side; `None` when
+    /// the normals do not spread (a flat node) or have no gap.
+    fn by_orientation(&self, tris: &mut [u32], keys: &mut Vec<(Real, u32)>) -> Option<usize> {
+        let (mut mean, mut weight) = (Vec3::zeros(), 0.0);
+        for &t in tris.iter() {
+            let an = &self.area_normals[t as usize];
+            mean += an;
+            weight += an.norm();
+        }
+        if weight.is_nan() || weight <= 0.0 {
+            return None;
+        }
+        mean /= weight;
+        let mut spread = Mat3::zeros();
+        for &t in tris.iter() {
+            let an = &self.area_normals[t as usize];
+            let w = an.norm();
+            if w > 0.0 {
+                let d = an / w - mean;
+                spread += d * d.transpose() * w;
+            }
+        }
+        // Normals within about 0.1° of one another: nothing to separate.
+        let trace = spread.trace();
+        if trace.is_nan() || trace <= 1e-6 * weight {
+            return None;
+        }
+        let eigen = spread.symmetric_eigen();
+        let u: Vec3 = eigen
+            .eigenvectors
+            .column(eigen.eigenvalues.imax())
+            .into_owned();
+        keys.clear();
+        keys.extend(tris.iter().map(|&t| {
+            let an = &self.area_normals[t as usize];
+            let w = an.norm();
+            (if w > 0.0 { u.dot(an) / w } else { 0.0 }, t)
+        }));
+        keys.sort_unstable_by(|a, b| a.0.total_cmp(&b.0).then(a.1.cmp(&b.1)));
+        let min = (tris.len() / MIN_SHARE).max(1);
+        let (mut cut, mut widest) = (None, 0.0);
+        for m in min..=tris.len() - min {
+            let gap = keys[m].0 - keys[m - 1].0;
+            if gap > widest {
+                (cut, widest) = (Some(m), gap);
+            }
+        }
+        let cut = cut?;
+        // Normals `g` apart along `u` are at least `2 asin(g / 2)` apart in angle.
+        if widest < 2.0 * (0.5 * CREASE_ANGLE_RAD).sin() {
+            return None;
+        }
+        for (dst, &(_, t)) in tris.iter_mut().zip(keys.iter()) {
+            *dst = t;
+        }
+        Some(cut)
+    }
+
+    /// Reorders `tris` (at least two) into the two children's and returns the cut: the left
+    /// child is `tris[..cut]`, the right `tris[cut..]`, both non-empty.
+    pub(super) fn split(&self, tris: &mut [u32], scratch: &mut SplitScratch) -> usize {
+        let mid = self.by_position(tris);
+        if tris.len() < 4 {
+            return mid;
+        }
+        let by_position = self.score(tris, mid);
+        if by_position == 0.0 {
+            return mid;
+        }
+        scratch.order.clear();
+        scratch.order.extend_from_slice(tris);
+        match self.by_orientation(&mut scratch.order, &mut scratch.keys) {
+            Some(cut) if self.score(&scratch.order, cut) < ORIENTATION_GAIN * by_position => {
+                tris.copy_from_slice(&scratch.order);
+                cut
+            }
+            _ => mid,
+        }
+    }
+}
+
+/// Buffers [`Triangles::split`] reuses from node to node.
+#[derive(Debug, Default)]
+pub(super) struct SplitScratch {
+    order: Vec<u32>,
+    keys: Vec<(Real, u32)>,
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::lod::testmesh;
+
+    fn triangles(mesh: &crate::mesh::TriMesh) -> (Vec<[Vec3; 3]>, Vec<Vec3>, Vec<Vec3>) {
+        let corners: Vec<[Vec3; 3]> = (0..mesh.triangles().len())
+            .map(|t| mesh.triangle(t))
+            .collect();
+        let centroids = corners.iter().map(|t| (t[0] + t[1] + t[2]) / 3.0).collect();
+        let area_normals = corners
+            .iter()
+            .map(|t| (t[1] - t[0]).cross(&(t[2] - t[0])))
+            .collect();
+        (corners, centroids, area_normals)
+    }
+
+    /// A box is cut along its creases: the first cut leaves both children thinner than the
+    /// box (a cut by position leaves each half as thick as the box along some normal).
+    #[test]
+    fn a_box_is_cut_along_its_creases() {
+        let mesh = testmesh::cuboid(Vec3::new(0.03, 0.02, 0.01));
+        let (corners, centroids, area_normals) = triangles(&mesh);
+        let tris = Triangles {
+            corners: &corners,
+            centroids: &centroids,
+            area_normals: &area_normals,
+        };
+        let mut all: Vec<u32> = (0..corners.len() as u32).collect();
+        let mut scratch = SplitScratch::default();
+        let cut = tris.split(&mut all, &mut scratch);
+        assert!(0 < cut && cut < all.len());
+        // Each part lies on fewer faces' planes than the whole: its thickness dropped.
+        assert!(tris.score(&all, cut) < tris.thickness(&all));
+    }
+
+    /// Two faces meeting at a right angle, one twice as long as the other: the cut is the
+    /// crease (each child flat), where the median by position would cut the long face.
+    #[test]
+    fn an_l_shape_is_cut_at_its_crease() {
+        let (k, step) = (4u32, 0.01);
+        let mut vertices = Vec::new();
+        let mut faces = Vec::new();
+        // Floor: x in [0, 2k] steps, y in [0, k]; wall: x = 0, z in [0, k].
+        let mut grid = |nu: u32, nv: u32, at: &dyn Fn(u32, u32) -> Vec3| {
+            let base = vertices.len() as u32;
+            for i in 0..=nu {
+                for j in 0..=nv {
+                    vertices.push(at(i, j));
+                }
+            }
+            let v = |i: u32, j: u32| base + i * (nv + 1) + j;
+            for i in 0..nu {
+                for j in 0..nv {
+                    faces.push([v(i, j), v(i + 1, j), v(i + 1, j + 1)]);
+                    faces.push([v(i, j), v(i + 1, j + 1), v(i, j + 1)]);
+                }
+            }
+        };
+        grid(2 * k, k, &|i, j| {
+            Vec3::new(i as Real * step, j as Real * step, 0.0)
+        });
+        grid(k, k, &|i, j| {
+            Vec3::new(0.0, j as Real * step, i as Real * step)
+        });
+        let floor = (2 * k * k * 2) as usize;
+        let mesh = testmesh::mesh(vertices, faces);
+        let (corners, centroids, area_normals) = triangles(&mesh);
+        let tris = Triangles {
+            corners: &corners,
+            centroids: &centroids,
+            area_normals: &area_normals,
+        };
+        let mut all: Vec<u32> = (0..corners.len() as u32).collect();
+        let cut = tris.split(&mut all, &mut SplitScratch::default());
+        assert_eq!(tris.score(&all, cut), 0.0, "both children flat");
+        let one_face = |part: &[u32]| {
+            part.iter().all(|&t| (t as usize) < floor)
+                || part.iter().all(|&t| (t as usize) >= floor)
+        };
+        assert!(
+            one_face(&all[..cut]) && one_face(&all[cut..]),
+            "the cut is the crease"
+        );
+    }
+
+    /// A flat patch is cut by position (its normals do not spread), into halves.
+    #[test]
+    fn a_flat_patch_is_cut_by_position() {
+        let mut vertices = Vec::new();
+        let mut faces = Vec::new();
+        for i in 0..5 {
+            for j in 0..5 {
+                vertices.push(Vec3::new(i as Real * 0.01, j as Real * 0.01, 0.0));
+            }
+        }
+        for i in 0..4u32 {
+            for j in 0..4u32 {
+                let v = |a: u32, b: u32| a * 5 + b;
+                faces.push([v(i, j), v(i + 1, j), v(i + 1, j + 1)]);
+                faces.push([v(i, j), v(i + 1, j + 1), v(i, j + 1)]);
+            }
+        }
+        let mesh = testmesh::mesh(vertices, faces);
+        let (corners, centroids, area_normals) = triangles(&mesh);
+        let tris = Triangles {
+            corners: &corners,
+            centroids: &centroids,
+            area_normals: &area_normals,
+        };
+        let mut all: Vec<u32> = (0..corners.len() as u32).collect();
+        assert_eq!(tris.split(&mut all, &mut SplitScratch::default()), 16);
+    }
+}
