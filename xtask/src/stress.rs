@@ -85,6 +85,8 @@ struct Outcome {
     resets: u64,
     /// Integration steps that failed (zero force sent).
     solver_failures: u64,
+    /// Newton steps that did not converge and took the semi-implicit step instead.
+    solver_fallbacks: u64,
     /// Largest coupling deviation (m).
     max_coupling_deviation_m: Real,
     stable: bool,
@@ -323,6 +325,7 @@ fn run_one(
         divergent,
         resets: stats.divergences,
         solver_failures: stats.solver_failures,
+        solver_fallbacks: stats.solver_fallbacks,
         max_coupling_deviation_m: stats.max_coupling_deviation_m,
         stable,
         passivity_min_energy_j: min_energy,
