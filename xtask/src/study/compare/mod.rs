@@ -79,6 +79,9 @@ struct Row {
     /// The run's error, if it ended with one.
     error: Option<String>,
     max_penetration_m: Real,
+    /// Newton steps that did not converge and took the semi-implicit step instead
+    /// (`SafetyConfig::semi_implicit_fallback`, on as for any user); 0 for the other integrators.
+    solver_fallbacks: u64,
     rms_force_n: Real,
     force_error_rel: Option<Real>,
     within_error_budget: bool,
@@ -241,9 +244,14 @@ pub fn run(args: &CompareArgs) -> anyhow::Result<()> {
         let rule = failed_rule(&m, contact_hz);
         let reference = &reference_forces[&physics_key(c)];
         let err = force_error_rel(&m.forces, reference);
-        let (pen, rate, error) = match &m.summary {
-            Ok(s) => (s.max_penetration_m, s.contact_rate_hz, None),
-            Err(e) => (Real::NAN, Real::NAN, Some(e.clone())),
+        let (pen, rate, fallbacks, error) = match &m.summary {
+            Ok(s) => (
+                s.max_penetration_m,
+                s.contact_rate_hz,
+                s.solver_fallbacks,
+                None,
+            ),
+            Err(e) => (Real::NAN, Real::NAN, 0, Some(e.clone())),
         };
         rows.push(Row {
             rank: 0,
@@ -262,6 +270,7 @@ pub fn run(args: &CompareArgs) -> anyhow::Result<()> {
             failed_rule: rule,
             error,
             max_penetration_m: pen,
+            solver_fallbacks: fallbacks,
             rms_force_n: rms(&m.forces),
             force_error_rel: err,
             within_error_budget: rule.is_none() && err.is_some_and(|e| e <= study.error_budget),
