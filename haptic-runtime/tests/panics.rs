@@ -4,11 +4,8 @@
 
 mod common;
 
-use common::{BoxOnFloor, HALF_M, box_body, pressing_hand};
-use haptic_core::{
-    Device, DeviceLimits, DeviceState, ForceModel, IntegrationError, Integrator, Pose, Real,
-    RigidBody, ToolState, Vec3, Wrench,
-};
+use common::{BoxOnFloor, FaultyIntegrator, HALF_M, IntegratorFault, box_body, pressing_hand};
+use haptic_core::{Device, DeviceLimits, DeviceState, Integrator, Pose, Real, Vec3, Wrench};
 use haptic_device::HandDevice;
 use haptic_dynamics::{LinearizedBackwardEuler, PenaltyModel, PenaltyParams};
 use haptic_runtime::{ContactLatency, Pipeline, PipelineBuilder, PipelineConfig, RuntimeError};
@@ -57,35 +54,6 @@ impl<D: Device> Device for RecordingDevice<D> {
         self.last_command = Some(*wrench);
         self.largest_force_n = self.largest_force_n.max(wrench.force.norm());
         self.inner.command(wrench)
-    }
-}
-
-/// Backward Euler that panics on its `panic_at`-th step.
-struct PanickingIntegrator {
-    steps: u64,
-    panic_at: u64,
-}
-
-impl Integrator for PanickingIntegrator {
-    fn name(&self) -> &'static str {
-        "panicking"
-    }
-    fn uses_jacobian(&self) -> bool {
-        true
-    }
-    fn step(
-        &mut self,
-        body: &RigidBody,
-        state: &ToolState,
-        t_s: Real,
-        dt_s: Real,
-        forces: &mut dyn ForceModel,
-    ) -> Result<ToolState, IntegrationError> {
-        self.steps += 1;
-        if self.steps == self.panic_at {
-            panic!("injected integrator panic");
-        }
-        LinearizedBackwardEuler.step(body, state, t_s, dt_s, forces)
     }
 }
 
@@ -165,10 +133,7 @@ fn a_device_panic_in_virtual_time_ends_at_zero_force() {
 
 #[test]
 fn an_integrator_panic_in_virtual_time_ends_at_zero_force() {
-    let integrator = PanickingIntegrator {
-        steps: 0,
-        panic_at: PANIC_AT_STEP,
-    };
+    let integrator = FaultyIntegrator::new(IntegratorFault::PanicAt(PANIC_AT_STEP));
     let mut p = pipeline(integrator, RecordingDevice::new(pressing_hand(), None));
     let result = p.run_virtual(2.0, ContactLatency::FixedRate { rate_hz: 500.0 }, |_, _| {});
     assert_stopped_at_zero_force(result, &p, "injected integrator panic");
@@ -184,10 +149,7 @@ fn a_device_panic_in_real_time_ends_at_zero_force() {
 
 #[test]
 fn an_integrator_panic_in_real_time_ends_at_zero_force() {
-    let integrator = PanickingIntegrator {
-        steps: 0,
-        panic_at: PANIC_AT_STEP,
-    };
+    let integrator = FaultyIntegrator::new(IntegratorFault::PanicAt(PANIC_AT_STEP));
     let mut p = pipeline(integrator, RecordingDevice::new(pressing_hand(), None));
     let result = p.run_realtime(2.0, |_| {});
     assert_stopped_at_zero_force(result, &p, "injected integrator panic");

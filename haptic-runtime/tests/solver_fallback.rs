@@ -5,49 +5,15 @@
 
 mod common;
 
-use common::{BoxOnFloor, HALF_M, box_body, pressing_hand};
-use haptic_core::{
-    ForceModel, IntegrationError, Integrator, Pose, Real, RigidBody, ToolState, Vec3,
-};
-use haptic_dynamics::{LinearizedBackwardEuler, PenaltyModel, PenaltyParams};
+use common::{BoxOnFloor, FaultyIntegrator, HALF_M, IntegratorFault, box_body, pressing_hand};
+use haptic_core::{Pose, Real, Vec3};
+use haptic_dynamics::{PenaltyModel, PenaltyParams};
 use haptic_runtime::stages::HapticStats;
 use haptic_runtime::{ContactLatency, PipelineBuilder, PipelineConfig, SafetyConfig};
 
 /// Haptic steps `FAIL_FROM..FAIL_TO` do not converge: the box is pressed on the floor by then.
 const FAIL_FROM: u64 = 600;
 const FAIL_TO: u64 = 610;
-
-/// Backward Euler whose steps `FAIL_FROM..FAIL_TO` report a Newton solve that did not converge,
-/// as full-Newton BE does where damped Newton cycles at a contact's kink.
-struct NonConverging {
-    steps: u64,
-}
-
-impl Integrator for NonConverging {
-    fn name(&self) -> &'static str {
-        "non_converging"
-    }
-    fn uses_jacobian(&self) -> bool {
-        true
-    }
-    fn step(
-        &mut self,
-        body: &RigidBody,
-        state: &ToolState,
-        t_s: Real,
-        dt_s: Real,
-        forces: &mut dyn ForceModel,
-    ) -> Result<ToolState, IntegrationError> {
-        self.steps += 1;
-        if (FAIL_FROM..FAIL_TO).contains(&self.steps) {
-            return Err(IntegrationError::NotConverged {
-                iterations: 20,
-                residual: 0.3,
-            });
-        }
-        LinearizedBackwardEuler.step(body, state, t_s, dt_s, forces)
-    }
-}
 
 /// The box pressed on the floor for 1 s with `semi_implicit_fallback` set to `fallback`: the
 /// stage's statistics and the force sent at each step (N).
@@ -56,7 +22,9 @@ fn run(fallback: bool) -> (HapticStats, Vec<Real>) {
         box_body(),
         Pose::from_position(Vec3::new(0.0, 0.0, HALF_M + 0.01)),
     )
-    .integrator(NonConverging { steps: 0 })
+    .integrator(FaultyIntegrator::new(IntegratorFault::NotConvergedIn(
+        FAIL_FROM..FAIL_TO,
+    )))
     .backend(BoxOnFloor::new(HALF_M))
     .contact_model(PenaltyModel::new(PenaltyParams::default()).unwrap())
     .device(pressing_hand())

@@ -6,7 +6,11 @@
 use std::sync::{Mutex, MutexGuard};
 use std::time::Duration;
 
-use haptic_core::{CollisionBackend, ContactSet, Pose, QueryParams, QueryStats, Real};
+use haptic_core::{
+    CollisionBackend, ContactSet, ForceModel, IntegrationError, Integrator, Pose, QueryParams,
+    QueryStats, Real, RigidBody, ToolState,
+};
+use haptic_dynamics::LinearizedBackwardEuler;
 
 pub use haptic_test_support::box_on_floor::*;
 
@@ -67,5 +71,59 @@ impl<B: CollisionBackend> CollisionBackend for Misbehaving<B> {
             }
         }
         Ok(stats)
+    }
+}
+
+/// What [`FaultyIntegrator`] does wrong, counted in its steps (the first step is 1).
+#[derive(Debug, Clone)]
+pub enum IntegratorFault {
+    /// Panics on this step.
+    PanicAt(u64),
+    /// Reports a Newton solve that did not converge on these steps, as full-Newton BE does
+    /// where damped Newton cycles at a contact's kink.
+    NotConvergedIn(std::ops::Range<u64>),
+}
+
+/// Semi-implicit backward Euler with a fault injected on purpose.
+pub struct FaultyIntegrator {
+    pub steps: u64,
+    pub fault: IntegratorFault,
+}
+
+impl FaultyIntegrator {
+    pub fn new(fault: IntegratorFault) -> Self {
+        Self { steps: 0, fault }
+    }
+}
+
+impl Integrator for FaultyIntegrator {
+    fn name(&self) -> &'static str {
+        "faulty"
+    }
+    fn uses_jacobian(&self) -> bool {
+        true
+    }
+    fn step(
+        &mut self,
+        body: &RigidBody,
+        state: &ToolState,
+        t_s: Real,
+        dt_s: Real,
+        forces: &mut dyn ForceModel,
+    ) -> Result<ToolState, IntegrationError> {
+        self.steps += 1;
+        match &self.fault {
+            IntegratorFault::PanicAt(step) if *step == self.steps => {
+                panic!("injected integrator panic")
+            }
+            IntegratorFault::NotConvergedIn(steps) if steps.contains(&self.steps) => {
+                return Err(IntegrationError::NotConverged {
+                    iterations: 20,
+                    residual: 0.3,
+                });
+            }
+            _ => {}
+        }
+        LinearizedBackwardEuler.step(body, state, t_s, dt_s, forces)
     }
 }
