@@ -5,7 +5,7 @@
 
 mod common;
 
-use common::BoxOnFloor;
+use common::{BoxOnFloor, FaultyIntegrator, IntegratorFault};
 use haptic_core::{DeviceLimits, Integrator, Pose, RigidBody, Vec3};
 use haptic_device::{HandDevice, HandParams, ScriptedDevice, Waypoint};
 use haptic_dynamics::{
@@ -19,7 +19,9 @@ static GLOBAL: CountingAllocator = CountingAllocator;
 
 const HALF_M: f64 = 0.025;
 
-fn steps_allocate<I: Integrator>(integrator: I) -> usize {
+/// Allocations of 2,000 haptic steps in contact, and how many of them fell back to the
+/// semi-implicit step.
+fn steps_allocate<I: Integrator>(integrator: I) -> (usize, u64) {
     let limits =
         DeviceLimits::new(10.0, 1.0, Vec3::repeat(-0.5), Vec3::repeat(0.5), 1000.0).unwrap();
     let start = Pose::from_position(Vec3::new(0.0, 0.0, HALF_M + 0.002));
@@ -58,17 +60,29 @@ fn steps_allocate<I: Integrator>(integrator: I) -> usize {
         }
         p.haptic_mut().step(t, 1e-3).unwrap();
     }
-    thread_allocations() - before
+    let allocations = thread_allocations() - before;
+    (allocations, p.haptic().stats.solver_fallbacks)
 }
 
 #[test]
 fn haptic_steps_allocate_nothing() {
-    assert_eq!(steps_allocate(LinearizedBackwardEuler), 0, "backward Euler");
     assert_eq!(
-        steps_allocate(NewtonBackwardEuler::default()),
+        steps_allocate(LinearizedBackwardEuler).0,
+        0,
+        "backward Euler"
+    );
+    assert_eq!(
+        steps_allocate(NewtonBackwardEuler::default()).0,
         0,
         "Newton backward Euler"
     );
-    assert_eq!(steps_allocate(Rk4), 0, "RK4");
-    assert_eq!(steps_allocate(ForwardEuler), 0, "forward Euler");
+    assert_eq!(steps_allocate(Rk4).0, 0, "RK4");
+    assert_eq!(steps_allocate(ForwardEuler).0, 0, "forward Euler");
+    // Steps whose Newton solve does not converge take the semi-implicit step instead: that path
+    // allocates nothing either (every measured step takes it).
+    let (allocations, fallbacks) = steps_allocate(FaultyIntegrator::new(
+        IntegratorFault::NotConvergedIn(1..u64::MAX),
+    ));
+    assert_eq!(allocations, 0, "semi-implicit fallback");
+    assert!(fallbacks >= 2000, "{fallbacks} fallback steps");
 }
