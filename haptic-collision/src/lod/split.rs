@@ -183,16 +183,42 @@ mod tests {
     use super::*;
     use crate::lod::testmesh;
 
-    fn triangles(mesh: &crate::mesh::TriMesh) -> (Vec<[Vec3; 3]>, Vec<Vec3>, Vec<Vec3>) {
-        let corners: Vec<[Vec3; 3]> = (0..mesh.triangles().len())
-            .map(|t| mesh.triangle(t))
-            .collect();
-        let centroids = corners.iter().map(|t| (t[0] + t[1] + t[2]) / 3.0).collect();
-        let area_normals = corners
-            .iter()
-            .map(|t| (t[1] - t[0]).cross(&(t[2] - t[0])))
-            .collect();
-        (corners, centroids, area_normals)
+    /// What the split reads of a mesh's triangles, owned for a test.
+    struct Owned {
+        corners: Vec<[Vec3; 3]>,
+        centroids: Vec<Vec3>,
+        area_normals: Vec<Vec3>,
+    }
+
+    impl Owned {
+        fn of(mesh: &crate::mesh::TriMesh) -> Self {
+            let corners: Vec<[Vec3; 3]> = (0..mesh.triangles().len())
+                .map(|t| mesh.triangle(t))
+                .collect();
+            let centroids = corners.iter().map(|t| (t[0] + t[1] + t[2]) / 3.0).collect();
+            let area_normals = corners
+                .iter()
+                .map(|t| (t[1] - t[0]).cross(&(t[2] - t[0])))
+                .collect();
+            Self {
+                corners,
+                centroids,
+                area_normals,
+            }
+        }
+
+        fn view(&self) -> Triangles<'_> {
+            Triangles {
+                corners: &self.corners,
+                centroids: &self.centroids,
+                area_normals: &self.area_normals,
+            }
+        }
+
+        /// Every triangle's index, in order.
+        fn all(&self) -> Vec<u32> {
+            (0..self.corners.len() as u32).collect()
+        }
     }
 
     /// A box is cut along its creases: the first cut leaves both children thinner than the
@@ -200,13 +226,9 @@ mod tests {
     #[test]
     fn a_box_is_cut_along_its_creases() {
         let mesh = testmesh::cuboid(Vec3::new(0.03, 0.02, 0.01));
-        let (corners, centroids, area_normals) = triangles(&mesh);
-        let tris = Triangles {
-            corners: &corners,
-            centroids: &centroids,
-            area_normals: &area_normals,
-        };
-        let mut all: Vec<u32> = (0..corners.len() as u32).collect();
+        let owned = Owned::of(&mesh);
+        let tris = owned.view();
+        let mut all = owned.all();
         let mut scratch = SplitScratch::default();
         let cut = tris.split(&mut all, &mut scratch);
         assert!(0 < cut && cut < all.len());
@@ -245,13 +267,9 @@ mod tests {
         });
         let floor = (2 * k * k * 2) as usize;
         let mesh = testmesh::mesh(vertices, faces);
-        let (corners, centroids, area_normals) = triangles(&mesh);
-        let tris = Triangles {
-            corners: &corners,
-            centroids: &centroids,
-            area_normals: &area_normals,
-        };
-        let mut all: Vec<u32> = (0..corners.len() as u32).collect();
+        let owned = Owned::of(&mesh);
+        let tris = owned.view();
+        let mut all = owned.all();
         let cut = tris.split(&mut all, &mut SplitScratch::default());
         assert_eq!(tris.score(&all, cut), 0.0, "both children flat");
         let one_face = |part: &[u32]| {
@@ -282,13 +300,9 @@ mod tests {
             }
         }
         let mesh = testmesh::mesh(vertices, faces);
-        let (corners, centroids, area_normals) = triangles(&mesh);
-        let tris = Triangles {
-            corners: &corners,
-            centroids: &centroids,
-            area_normals: &area_normals,
-        };
-        let mut all: Vec<u32> = (0..corners.len() as u32).collect();
+        let owned = Owned::of(&mesh);
+        let tris = owned.view();
+        let mut all = owned.all();
         assert_eq!(tris.split(&mut all, &mut SplitScratch::default()), 16);
     }
 }
