@@ -47,7 +47,6 @@ use nalgebra::UnitQuaternion;
 use serde::Serialize;
 
 use crate::common;
-use crate::plot::{self, Chart, Scale, Series};
 
 /// LOD error thresholds, fractions of the tool's bounding radius.
 /// The reference run's `backend` in the rows: LOD at threshold 0 writing every contact.
@@ -245,7 +244,7 @@ pub fn run(args: &super::CollisionArgs, out: &crate::OutArgs) -> anyhow::Result<
         rows: &m.rows,
     };
     common::write_json(&dir.join("collision.json"), &report)?;
-    work_precision_chart(
+    super::chart::work_precision_chart(
         &dir.join("collision_work_precision.svg"),
         &scene.name,
         &m.rows,
@@ -254,60 +253,6 @@ pub fn run(args: &super::CollisionArgs, out: &crate::OutArgs) -> anyhow::Result<
 
 /// How the wrench and its error are computed (in every report).
 pub(super) const WRENCH: &str = "contacts -> haptic_cluster::Clusterer (K = 5, w = a (d + delta), a the tool area a contact stands for) -> haptic_dynamics::penalty::PenaltyModel (k_c, b_c = 0, tool at rest), torque about the tool origin; error |W - W0| / |W0| with W = (F, T / r), W0 = LOD at threshold 0 with every contact found (all-pairs). The reference warm-starts from its previous pose; the other runs cluster each pose from the reference's representatives of that pose (wrench_error_rel_*), and along their own chain of warm starts (wrench_error_rel_*_chained)";
-
-/// The work-precision chart of one scene's rows.
-pub(super) fn work_precision_chart(
-    path: &Path,
-    scene_name: &str,
-    rows: &[Row],
-) -> anyhow::Result<()> {
-    let lod_rows: Vec<&Row> = rows
-        .iter()
-        .filter(|r| r.backend == "lod" && r.wrench_error_rel_median > 0.0)
-        .collect();
-    let lod_points: Vec<(f64, f64)> = lod_rows
-        .iter()
-        .map(|r| (r.wrench_error_rel_median, r.median_s * 1e3))
-        .collect();
-    let lod_labels: Vec<String> = lod_rows
-        .iter()
-        .map(|r| format!("{} %", crate::plot::tick_label(r.threshold * 100.0)))
-        .collect();
-    // Parry has one point: drawn as a horizontal line at its median time across the LOD range
-    // (a single point would not show in a line chart); its own error is in the legend.
-    let parry = rows.iter().find(|r| r.backend == "parry");
-    let parry_ms = parry.map_or(Real::NAN, |r| r.median_s) * 1e3;
-    let parry_err = parry.map_or(Real::NAN, |r| r.wrench_error_rel_median);
-    let xs = lod_points.iter().map(|p| p.0).filter(|x| *x > 0.0);
-    let (x0, x1) = xs.fold((Real::INFINITY, 0.0 as Real), |(lo, hi), x| {
-        (lo.min(x), hi.max(x))
-    });
-    let parry_points = if x0.is_finite() {
-        vec![(x0, parry_ms), (x1, parry_ms)]
-    } else {
-        Vec::new()
-    };
-    plot::line_chart(
-        path,
-        &Chart {
-            title: &format!(
-                "Collision queries, {scene_name}: time against wrench error (reference: every contact at threshold 0)"
-            ),
-            x_label: "median wrench error relative to the all-pairs reference",
-            y_label: "median query time (ms)",
-            x_scale: Scale::Log,
-            y_scale: Scale::Log,
-        },
-        &[
-            Series::new("LOD (threshold beside each point)", lod_points)
-                .with_point_labels(lod_labels),
-            Series::new(
-                format!("parry (median time; its own error {parry_err:.2})"),
-                parry_points,
-            ),
-        ],
-    )
-}
 
 /// What one run measured.
 #[derive(Clone)]

@@ -1,6 +1,7 @@
 //! `cargo xtask bench …`: the performance report (the default), the collision back-ends, and the
 //! real-time demo under load.
 
+mod chart;
 mod collision;
 mod perf;
 mod realtime;

@@ -399,7 +399,7 @@ pub(super) fn run(out: &crate::OutArgs) -> anyhow::Result<SuiteWorst> {
     let mut measured = Vec::new();
     for e in &entries {
         let m = collision::measure(&e.scene, passes)?;
-        collision::work_precision_chart(
+        super::chart::work_precision_chart(
             &dir.join(format!("suite_{}.svg", e.scene.name)),
             &e.scene.name,
             &m.rows,
