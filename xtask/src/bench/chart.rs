@@ -105,6 +105,8 @@ mod tests {
             wrench_error_rel_max: error,
             wrench_error_rel_median_chained: error,
             wrench_error_rel_p90_chained: error,
+            wrench_error_rel_unclustered_median: error,
+            wrench_error_rel_unclustered_p90: error,
             force_ratio_median: 1.0,
             build_s: 0.0,
         }

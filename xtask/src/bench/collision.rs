@@ -26,7 +26,11 @@
 //!   contacts allow: the headline error measures the collision back-end, not which local minimum
 //!   a chain of warm starts reached. The error with each run's own chain (`_chained`) and the
 //!   clustering's own variability (the reference's contacts clustered cold against its warm
-//!   chain, `clustering_variability_rel_*`) are reported beside it.
+//!   chain, `clustering_variability_rel_*`) are reported beside it, and so is the error of the
+//!   penalty integrated over the contacts themselves, unclustered
+//!   (`wrench_error_rel_unclustered_*`, see
+//!   [`super::wrench::integrated_wrench`]): the back-end's own error,
+//!   apart from the clustering's.
 //! - Output: `DIR/collision.json` and `DIR/collision_work_precision.svg`; each row has the mean
 //!   and the most contacts a query wrote (`contacts_mean`, `contacts_max`) and the most it found
 //!   before compaction (`raw_contacts_max`).
@@ -46,6 +50,7 @@ use haptic_dynamics::penalty::{PenaltyModel, PenaltyParams};
 use nalgebra::UnitQuaternion;
 use serde::Serialize;
 
+use super::wrench::{integrated_wrench, relative_error};
 use crate::common;
 
 /// LOD error thresholds, fractions of the tool's bounding radius.
@@ -129,7 +134,7 @@ pub(super) fn measure(scene: &Scene, passes: usize) -> anyhow::Result<SceneMeasu
     }
     for r in &rows {
         println!(
-            "{:>9} {:>6.1} %: median {:>9.1} µs, p99 {:>9.1} µs, contacts {:>8.1} (max {:>7}, raw {:>7}), node pairs {:>9.0}, wrench error median {:.3} (p90 {:.3}; own chain {:.3}), |F|/|F0| {:.3}",
+            "{:>9} {:>6.1} %: median {:>9.1} µs, p99 {:>9.1} µs, contacts {:>8.1} (max {:>7}, raw {:>7}), node pairs {:>9.0}, wrench error median {:.3} (p90 {:.3}; own chain {:.3}; unclustered {:.3}), |F|/|F0| {:.3}",
             r.backend,
             r.threshold * 100.0,
             r.median_s * 1e6,
@@ -141,6 +146,7 @@ pub(super) fn measure(scene: &Scene, passes: usize) -> anyhow::Result<SceneMeasu
             r.wrench_error_rel_median,
             r.wrench_error_rel_p90,
             r.wrench_error_rel_median_chained,
+            r.wrench_error_rel_unclustered_median,
             r.force_ratio_median,
         );
     }
@@ -252,7 +258,7 @@ pub fn run(args: &super::CollisionArgs, out: &crate::OutArgs) -> anyhow::Result<
 }
 
 /// How the wrench and its error are computed (in every report).
-pub(super) const WRENCH: &str = "contacts -> haptic_cluster::Clusterer (K = 5, w = a (d + delta), a the tool area a contact stands for) -> haptic_dynamics::penalty::PenaltyModel (k_c, b_c = 0, tool at rest), torque about the tool origin; error |W - W0| / |W0| with W = (F, T / r), W0 = LOD at threshold 0 with every contact found (all-pairs). The reference warm-starts from its previous pose; the other runs cluster each pose from the reference's representatives of that pose (wrench_error_rel_*), and along their own chain of warm starts (wrench_error_rel_*_chained)";
+pub(super) const WRENCH: &str = "contacts -> haptic_cluster::Clusterer (K = 5, w = a (d + delta), a the tool area a contact stands for) -> haptic_dynamics::penalty::PenaltyModel (k_c, b_c = 0, tool at rest), torque about the tool origin; error |W - W0| / |W0| with W = (F, T / r), W0 = LOD at threshold 0 with every contact found (all-pairs). The reference warm-starts from its previous pose; the other runs cluster each pose from the reference's representatives of that pose (wrench_error_rel_*), and along their own chain of warm starts (wrench_error_rel_*_chained). wrench_error_rel_unclustered_*: the same error for the penalty integrated over the contacts themselves, unclustered (F = -sum a (d + delta) n, T = sum rho x F_i), the back-end's own error without the clustering's; null where contacts carry no area (parry)";
 
 /// What one run measured.
 #[derive(Clone)]
@@ -272,6 +278,11 @@ pub(super) struct RunResult {
     errors_chained: Vec<Real>,
     /// Reference run only: per pose, its contacts clustered cold against its warm chain.
     pub cold_errors: Vec<Real>,
+    /// The penalty integrated over the contacts' own areas, per pose (first pass); `None` where
+    /// a contact has no area (a back-end that does not measure it).
+    integrated: Vec<Option<[Real; 6]>>,
+    /// Error per pose of `integrated` against the reference's.
+    errors_unclustered: Vec<Real>,
     /// `|F| / |F₀|` per pose.
     force_ratios: Vec<Real>,
 }
@@ -304,6 +315,8 @@ fn row(backend: &'static str, threshold: Real, r: &RunResult, build_s: Real) -> 
         wrench_error_rel_max: q(e, 1.0),
         wrench_error_rel_median_chained: q(ec, 0.5),
         wrench_error_rel_p90_chained: q(ec, 0.9),
+        wrench_error_rel_unclustered_median: q(&r.errors_unclustered, 0.5),
+        wrench_error_rel_unclustered_p90: q(&r.errors_unclustered, 0.9),
         force_ratio_median: q(fr, 0.5),
         build_s,
     }
@@ -327,6 +340,12 @@ pub(super) struct Row {
     pub wrench_error_rel_max: Real,
     pub wrench_error_rel_median_chained: Real,
     pub wrench_error_rel_p90_chained: Real,
+    /// The error of the penalty integrated over the contacts themselves, unclustered (see
+    /// [`super::wrench::integrated_wrench`]): the back-end's own error, without the clustering's. `null` for
+    /// a back-end whose contacts carry no area (parry).
+    pub wrench_error_rel_unclustered_median: Real,
+    /// Its 90th percentile.
+    pub wrench_error_rel_unclustered_p90: Real,
     pub force_ratio_median: Real,
     pub build_s: Real,
 }
@@ -391,6 +410,7 @@ where
     let (mut contacts, mut node_pairs, mut contacts_max) = (0usize, 0u64, 0usize);
     let mut raw_contacts_max = 0usize;
     let mut cold_errors = Vec::new();
+    let mut integrated = Vec::with_capacity(scene.poses.len());
     for pass in 0..passes {
         for (i, pose) in scene.poses.iter().enumerate() {
             let t = Instant::now();
@@ -404,6 +424,7 @@ where
             // A back-end that does not compact reports 0 raw contacts: all it found it wrote.
             raw_contacts_max = raw_contacts_max.max((st.raw_contacts as usize).max(out.len()));
             node_pairs += st.node_pairs_tested;
+            integrated.push(integrated_wrench(out.as_slice(), pose, scene.delta_m));
             let (w, reps) = chained.wrench(&out, pose, scene.delta_m)?;
             chained_wrenches.push(w);
             match reference {
@@ -442,8 +463,21 @@ where
             .collect(),
         None => vec![1.0; wrenches.len()],
     };
+    let errors_unclustered = match reference {
+        Some(r) => integrated
+            .iter()
+            .zip(&r.integrated)
+            .filter_map(|(w, w0)| match (w, w0) {
+                (Some(w), Some(w0)) => relative_error(w, w0, radius),
+                _ => None,
+            })
+            .collect(),
+        None => vec![0.0; integrated.len()],
+    };
     Ok(RunResult {
         force_ratios,
+        integrated,
+        errors_unclustered,
         times_s,
         contacts_mean: contacts as Real / n,
         contacts_max,
@@ -455,26 +489,6 @@ where
         wrenches,
         representatives,
     })
-}
-
-/// `|W − W₀| / |W₀|` with torques divided by `lever`; `None` when both wrenches are zero.
-pub(super) fn relative_error(w: &[Real; 6], w0: &[Real; 6], lever: Real) -> Option<Real> {
-    let scale = |i: usize| if i < 3 { 1.0 } else { 1.0 / lever };
-    let diff = (0..6)
-        .map(|i| ((w[i] - w0[i]) * scale(i)).powi(2))
-        .sum::<Real>()
-        .sqrt();
-    let norm = (0..6)
-        .map(|i| (w0[i] * scale(i)).powi(2))
-        .sum::<Real>()
-        .sqrt();
-    if norm > 0.0 {
-        Some(diff / norm)
-    } else if diff > 0.0 {
-        Some(1.0)
-    } else {
-        None
-    }
 }
 
 /// The contact wrench of one pose: contacts → `haptic_cluster::Clusterer` (K = 5, warm start

@@ -7,6 +7,7 @@ mod perf;
 mod realtime;
 mod shapes;
 mod suite;
+mod wrench;
 
 use crate::OutArgs;
 

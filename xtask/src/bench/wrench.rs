@@ -1,0 +1,116 @@
+//! Two wrenches of the collision bench's metric: the relative error between two wrenches, and
+//! the penalty integrated over a contact set without clustering it.
+
+use haptic_core::{Contact, Pose, Real, Vec3};
+
+/// The penalty integrated over the contacts themselves, unclustered: `F = −Σ a g n` and
+/// `T = Σ ρ × F_i` about the tool origin (`a` the area a contact stands for, `g = d + δ` its gap
+/// weight, `ρ = R r_a`), with a unit stiffness per area, which cancels in the relative error.
+/// What the contacts would push if every one were its own spring sharing the stiffness by area:
+/// the back-end's own error, before the clustering's. `None` when a contact has no area (a
+/// back-end that does not measure areas); an empty set gives zero.
+pub(super) fn integrated_wrench(
+    contacts: &[Contact],
+    pose: &Pose,
+    delta_m: Real,
+) -> Option<[Real; 6]> {
+    let (mut f, mut t) = (Vec3::zeros(), Vec3::zeros());
+    for c in contacts {
+        if c.area_m2 <= 0.0 {
+            return None;
+        }
+        let fi = -c.n * (c.area_m2 * c.gap_weight_m(delta_m));
+        f += fi;
+        t += (pose.orientation * c.r_a).cross(&fi);
+    }
+    Some([f.x, f.y, f.z, t.x, t.y, t.z])
+}
+
+/// `|W − W₀| / |W₀|` with torques divided by `lever`; `None` when both wrenches are zero.
+pub(super) fn relative_error(w: &[Real; 6], w0: &[Real; 6], lever: Real) -> Option<Real> {
+    let scale = |i: usize| if i < 3 { 1.0 } else { 1.0 / lever };
+    let diff = (0..6)
+        .map(|i| ((w[i] - w0[i]) * scale(i)).powi(2))
+        .sum::<Real>()
+        .sqrt();
+    let norm = (0..6)
+        .map(|i| (w0[i] * scale(i)).powi(2))
+        .sum::<Real>()
+        .sqrt();
+    if norm > 0.0 {
+        Some(diff / norm)
+    } else if diff > 0.0 {
+        Some(1.0)
+    } else {
+        None
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use nalgebra::UnitQuaternion;
+
+    /// A contact on a face of normal `n` (out of the tool), at body point `r_a`, `depth_m` deep,
+    /// standing for `area_m2`, with the tool at `pose`.
+    fn on_face(pose: &Pose, r_a: Vec3, n: Vec3, depth_m: Real, area_m2: Real) -> Contact {
+        let p_a = pose.position + pose.orientation * r_a;
+        Contact::new(p_a, r_a, p_a - n * depth_m, n, depth_m)
+            .unwrap()
+            .with_area(area_m2)
+    }
+
+    #[test]
+    fn a_face_split_in_two_pushes_as_the_whole_face() {
+        let pose = Pose {
+            position: Vec3::new(0.1, -0.2, 0.3),
+            orientation: UnitQuaternion::from_scaled_axis(Vec3::new(0.3, -0.1, 0.2)),
+        };
+        let n = Vec3::new(0.0, 0.0, -1.0);
+        let (delta, depth) = (1e-3, 2e-4);
+        // One contact at the face's centre for 4 cm², or two at the centres of its halves.
+        let whole = [on_face(&pose, Vec3::new(0.0, 0.0, -0.01), n, depth, 4e-4)];
+        let halves = [
+            on_face(&pose, Vec3::new(-0.005, 0.0, -0.01), n, depth, 2e-4),
+            on_face(&pose, Vec3::new(0.005, 0.0, -0.01), n, depth, 2e-4),
+        ];
+        let w = integrated_wrench(&whole, &pose, delta).unwrap();
+        let h = integrated_wrench(&halves, &pose, delta).unwrap();
+        assert!(
+            relative_error(&h, &w, 0.05).unwrap() < 1e-12,
+            "{h:?} against {w:?}"
+        );
+        // It pushes the tool away from the obstacle: along −n, by area × (d + δ).
+        assert!((w[2] - 4e-4 * (depth + delta)).abs() < 1e-18);
+    }
+
+    #[test]
+    fn the_torque_is_about_the_tool_origin() {
+        let pose = Pose::from_position(Vec3::new(0.0, 0.0, 1.0));
+        let n = Vec3::new(1.0, 0.0, 0.0);
+        let c = on_face(&pose, Vec3::new(0.0, 0.5, 0.0), n, 0.0, 1.0);
+        let w = integrated_wrench(&[c], &pose, 1.0).unwrap();
+        // F = (−1, 0, 0) at ρ = (0, 0.5, 0): T = ρ × F = (0, 0, 0.5).
+        let expected = [-1.0, 0.0, 0.0, 0.0, 0.0, 0.5];
+        assert!(relative_error(&w, &expected, 1.0).unwrap() < 1e-12, "{w:?}");
+    }
+
+    #[test]
+    fn contacts_without_an_area_have_no_integrated_wrench() {
+        let pose = Pose::identity();
+        let n = Vec3::new(0.0, 0.0, -1.0);
+        let with = on_face(&pose, Vec3::zeros(), n, 0.0, 1e-4);
+        let without = with.with_area(0.0);
+        assert!(integrated_wrench(&[with, without], &pose, 1e-3).is_none());
+        assert_eq!(integrated_wrench(&[], &pose, 1e-3), Some([0.0; 6]));
+    }
+
+    #[test]
+    fn relative_error_scales_the_torque_by_the_lever() {
+        let w0 = [1.0, 0.0, 0.0, 0.0, 0.0, 0.0];
+        let w = [1.0, 0.0, 0.0, 0.0, 0.0, 0.2];
+        assert!((relative_error(&w, &w0, 2.0).unwrap() - 0.1).abs() < 1e-15);
+        assert_eq!(relative_error(&[0.0; 6], &[0.0; 6], 1.0), None);
+        assert_eq!(relative_error(&w, &[0.0; 6], 1.0), Some(1.0));
+    }
+}
