@@ -34,7 +34,8 @@
 //! - Output: `DIR/collision.json` and `DIR/collision_work_precision.svg`; each row has the mean
 //!   and the most contacts a query wrote (`contacts_mean`, `contacts_max`) and the most it found
 //!   before compaction (`raw_contacts_max`).
-//! - `--suite`: every scene of the generalization suite (see `suite.rs`).
+//! - `--suite`: every scene of the generalization suite (see `suite.rs`); `--suite --only
+//!   NAME[,NAME…]` runs the scenes named (`boxes-coarse,fork-in-mug`, say), to iterate on a few.
 
 use std::path::Path;
 use std::time::Instant;
@@ -191,7 +192,7 @@ pub(super) fn measure(scene: &Scene, passes: usize) -> anyhow::Result<SceneMeasu
 /// Runs the benchmark on one scene, or the suite (`--suite`).
 pub fn run(args: &super::CollisionArgs, out: &crate::OutArgs) -> anyhow::Result<()> {
     if args.suite {
-        return super::suite::run(out).map(|_| ());
+        return super::suite::run(out, args.only.as_deref()).map(|_| ());
     }
     let dir = out.dir("collision")?;
     let scene = load_scene(args, POSES)?;

@@ -46,6 +46,10 @@ pub struct CollisionArgs {
     /// Every scene of the generalization suite (`suite.json`), instead of one scene.
     #[arg(long)]
     pub suite: bool,
+    /// With `--suite`: only these scenes of the suite, by name (comma-separated), e.g.
+    /// `--only boxes-coarse,fork-in-mug`. The worst figures are then over those scenes only.
+    #[arg(long, value_delimiter = ',', requires = "suite")]
+    pub only: Option<Vec<String>>,
 }
 
 /// Runs a benchmark.

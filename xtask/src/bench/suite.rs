@@ -89,6 +89,7 @@ fn file_scene(name: &str, n: usize) -> anyhow::Result<Entry> {
         scene: name.to_owned(),
         scale: None,
         suite: false,
+        only: None,
     };
     Ok(Entry {
         scene: collision::load_scene(&args, n)?,
@@ -366,6 +367,9 @@ pub(super) struct SuiteWorst {
 #[derive(Serialize)]
 struct SuiteReport<'a> {
     quick: bool,
+    /// The scenes asked for with `--only`, or `null` for the whole suite (whose worst figures
+    /// are then the goals).
+    only: Option<Vec<String>>,
     poses_per_scene: usize,
     passes: usize,
     wrench: &'static str,
@@ -375,9 +379,28 @@ struct SuiteReport<'a> {
     suite_worst: SuiteWorst,
 }
 
-/// Runs the suite, writes `suite.json` and the charts, and returns its worst figures (which
+/// Keeps the scenes of `entries` named in `only` (`--only`), in the suite's order.
+///
+/// # Errors
+/// A name that is not a scene of the suite, listing the names that are.
+fn select(entries: &mut Vec<Entry>, only: &[String]) -> anyhow::Result<()> {
+    if let Some(unknown) = only
+        .iter()
+        .find(|o| !entries.iter().any(|e| &e.scene.name == *o))
+    {
+        let names: Vec<&str> = entries.iter().map(|e| e.scene.name.as_str()).collect();
+        anyhow::bail!(
+            "--only: `{unknown}` is not a scene of the suite (scenes: {})",
+            names.join(", ")
+        );
+    }
+    entries.retain(|e| only.contains(&e.scene.name));
+    Ok(())
+}
+
+/// Runs the suite (or the scenes named in `only`), writes `suite.json` and the charts, and returns its worst figures (which
 /// `cargo xtask bench` also writes into `perf.json`).
-pub(super) fn run(out: &crate::OutArgs) -> anyhow::Result<SuiteWorst> {
+pub(super) fn run(out: &crate::OutArgs, only: Option<&[String]>) -> anyhow::Result<SuiteWorst> {
     let started = Instant::now();
     let dir = out.dir("collision")?;
     let (n, passes) = if out.quick {
@@ -396,6 +419,9 @@ pub(super) fn run(out: &crate::OutArgs) -> anyhow::Result<SuiteWorst> {
     entries.extend(gears(n)?);
     entries.extend(bolt_and_nut(n)?);
 
+    if let Some(only) = only {
+        select(&mut entries, only)?;
+    }
     let mut measured = Vec::new();
     for e in &entries {
         let m = collision::measure(&e.scene, passes)?;
@@ -564,6 +590,7 @@ pub(super) fn run(out: &crate::OutArgs) -> anyhow::Result<SuiteWorst> {
     );
     let report = SuiteReport {
         quick: out.quick,
+        only: only.map(<[String]>::to_vec),
         poses_per_scene: n,
         passes,
         wrench: collision::WRENCH,
@@ -581,4 +608,35 @@ fn name_static(name: &str) -> Option<&'static str> {
     ["boxes", "gears", "bolt-nut"]
         .into_iter()
         .find(|n| *n == name)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn names(entries: &[Entry]) -> Vec<&str> {
+        entries.iter().map(|e| e.scene.name.as_str()).collect()
+    }
+
+    #[test]
+    fn only_keeps_the_scenes_named_in_the_suites_order() {
+        let mut entries = boxes(2).unwrap();
+        entries.extend(gears(2).unwrap());
+        let only = ["gears-fine".to_owned(), "boxes-coarse".to_owned()];
+        select(&mut entries, &only).unwrap();
+        assert_eq!(names(&entries), ["boxes-coarse", "gears-fine"]);
+    }
+
+    #[test]
+    fn only_refuses_a_name_that_is_not_a_scene() {
+        let mut entries = boxes(2).unwrap();
+        let err = select(&mut entries, &["box".to_owned()])
+            .unwrap_err()
+            .to_string();
+        assert!(
+            err.contains("`box`") && err.contains("boxes-coarse, boxes-fine"),
+            "{err}"
+        );
+        assert_eq!(entries.len(), 2, "nothing removed on an error");
+    }
 }
