@@ -259,7 +259,7 @@ pub fn run(args: &super::CollisionArgs, out: &crate::OutArgs) -> anyhow::Result<
 }
 
 /// How the wrench and its error are computed (in every report).
-pub(super) const WRENCH: &str = "contacts -> haptic_cluster::Clusterer (K = 5, w = a (d + delta), a the tool area a contact stands for) -> haptic_dynamics::penalty::PenaltyModel (k_c, b_c = 0, tool at rest), torque about the tool origin; error |W - W0| / |W0| with W = (F, T / r), W0 = LOD at threshold 0 with every contact found (all-pairs). The reference warm-starts from its previous pose; the other runs cluster each pose from the reference's representatives of that pose (wrench_error_rel_*), and along their own chain of warm starts (wrench_error_rel_*_chained). wrench_error_rel_unclustered_*: the same error for the penalty integrated over the contacts themselves, unclustered (F = -sum a (d + delta) n, T = sum rho x F_i), the back-end's own error without the clustering's; null where contacts carry no area (parry)";
+pub(super) const WRENCH: &str = "contacts -> haptic_cluster::Clusterer (K = 5, w = a (d + delta), a the tool area a contact stands for) -> haptic_dynamics::penalty::PenaltyModel (k_c, b_c = 0, tool at rest), torque about the tool origin; error |W - W0| / |W0| with W = (F, T / r), W0 = LOD at threshold 0 with every contact found (all-pairs). The reference warm-starts from its previous pose; the other runs cluster each pose from the reference's representatives of that pose (wrench_error_rel_*), and along their own chain of warm starts (wrench_error_rel_*_chained). wrench_error_rel_unclustered_*: the same error for the penalty integrated over the contacts themselves, unclustered (F = -sum a (d + delta) n, T = sum rho x F_i), the back-end's own error without the clustering's; null where contacts carry no area";
 
 /// What one run measured.
 #[derive(Clone)]
@@ -342,8 +342,8 @@ pub(super) struct Row {
     pub wrench_error_rel_median_chained: Real,
     pub wrench_error_rel_p90_chained: Real,
     /// The error of the penalty integrated over the contacts themselves, unclustered (see
-    /// [`super::wrench::integrated_wrench`]): the back-end's own error, without the clustering's. `null` for
-    /// a back-end whose contacts carry no area (parry).
+    /// [`super::wrench::integrated_wrench`]): the back-end's own error, without the
+    /// clustering's; `null` for a back-end whose contacts carry no area (both of ours do).
     pub wrench_error_rel_unclustered_median: Real,
     /// Its 90th percentile.
     pub wrench_error_rel_unclustered_p90: Real,
