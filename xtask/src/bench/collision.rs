@@ -51,7 +51,7 @@ use haptic_dynamics::penalty::{PenaltyModel, PenaltyParams};
 use nalgebra::UnitQuaternion;
 use serde::Serialize;
 
-use super::wrench::{integrated_wrench, relative_error};
+use super::wrench::{integrated_wrench, pose_errors, relative_error};
 use crate::common;
 
 /// LOD error thresholds, fractions of the tool's bounding radius.
@@ -447,11 +447,7 @@ where
     }
     let n = scene.poses.len().max(1) as Real;
     let errors_against = |ws: &[[Real; 6]]| match reference {
-        Some(r) => ws
-            .iter()
-            .zip(&r.wrenches)
-            .filter_map(|(w, w0)| relative_error(w, w0, radius))
-            .collect(),
+        Some(r) => pose_errors(ws.iter().map(Some), r.wrenches.iter().map(Some), radius),
         None => vec![0.0; ws.len()],
     };
     let force = |w: &[Real; 6]| Vec3::new(w[0], w[1], w[2]).norm();
@@ -465,14 +461,11 @@ where
         None => vec![1.0; wrenches.len()],
     };
     let errors_unclustered = match reference {
-        Some(r) => integrated
-            .iter()
-            .zip(&r.integrated)
-            .filter_map(|(w, w0)| match (w, w0) {
-                (Some(w), Some(w0)) => relative_error(w, w0, radius),
-                _ => None,
-            })
-            .collect(),
+        Some(r) => pose_errors(
+            integrated.iter().map(Option::as_ref),
+            r.integrated.iter().map(Option::as_ref),
+            radius,
+        ),
         None => vec![0.0; integrated.len()],
     };
     Ok(RunResult {

@@ -442,13 +442,11 @@ pub(super) fn run(out: &crate::OutArgs, only: Option<&[String]>) -> anyhow::Resu
                 .find(|(e, _)| e.family == Some((name, d)))
         };
         let ((_, coarse), (_, fine)) = (find(1)?, find(2)?);
-        let errors: Vec<Real> = coarse
-            .reference
-            .wrenches
-            .iter()
-            .zip(&fine.reference.wrenches)
-            .filter_map(|(c, f)| super::wrench::relative_error(f, c, coarse.radius_m))
-            .collect();
+        let errors = super::wrench::pose_errors(
+            fine.reference.wrenches.iter().map(Some),
+            coarse.reference.wrenches.iter().map(Some),
+            coarse.radius_m,
+        );
         Some((
             collision::quantile(&errors, 0.5),
             collision::quantile(&errors, 0.9),

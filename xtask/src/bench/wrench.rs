@@ -46,6 +46,19 @@ pub(super) fn relative_error(w: &[Real; 6], w0: &[Real; 6], lever: Real) -> Opti
     }
 }
 
+/// The error of each pose's wrench in `ws` against the same pose's in `w0s` (torques divided by
+/// `lever`), skipping the poses where either has none or both are zero.
+pub(super) fn pose_errors<'a>(
+    ws: impl IntoIterator<Item = Option<&'a [Real; 6]>>,
+    w0s: impl IntoIterator<Item = Option<&'a [Real; 6]>>,
+    lever: Real,
+) -> Vec<Real> {
+    ws.into_iter()
+        .zip(w0s)
+        .filter_map(|(w, w0)| relative_error(w?, w0?, lever))
+        .collect()
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -112,5 +125,17 @@ mod tests {
         assert!((relative_error(&w, &w0, 2.0).unwrap() - 0.1).abs() < 1e-15);
         assert_eq!(relative_error(&[0.0; 6], &[0.0; 6], 1.0), None);
         assert_eq!(relative_error(&w, &[0.0; 6], 1.0), Some(1.0));
+    }
+
+    #[test]
+    fn pose_errors_skip_poses_without_a_wrench() {
+        let (a, b) = (
+            [1.0, 0.0, 0.0, 0.0, 0.0, 0.0],
+            [2.0, 0.0, 0.0, 0.0, 0.0, 0.0],
+        );
+        let zero = [0.0; 6];
+        let ws = [Some(&a), None, Some(&zero), Some(&b)];
+        let w0s = [Some(&b), Some(&b), Some(&zero), None];
+        assert_eq!(pose_errors(ws, w0s, 1.0), vec![0.5]);
     }
 }
