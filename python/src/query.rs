@@ -4,7 +4,7 @@
 use std::sync::Mutex;
 use std::time::Instant;
 
-use haptic_collision::{LodBackend, ParryBackend, TriMesh};
+use haptic_collision::{LodBackend, ParryBackend, StoppingRule, TriMesh};
 use haptic_core::{CollisionBackend, Contact, ContactSet, Pose, QueryParams, Vec3};
 use numpy::{PyArray1, PyArray2};
 use pyo3::prelude::*;
@@ -236,10 +236,11 @@ fn query<B: CollisionBackend + Send>(
 }
 
 /// The native sensation-preserving multiresolution back-end: `LodBackend(tool, obstacles,
-/// cache_dir=None, max_contacts=256)`, the tool mesh in its body frame and `[(Mesh, pose), …]` the obstacles with
+/// cache_dir=None, max_contacts=256, stopping_rule="deviation")`, the tool mesh in its body frame and `[(Mesh, pose), …]` the obstacles with
 /// their world poses. With `cache_dir`, each hierarchy is read back from that folder when it was
 /// saved there for the same mesh, and built and saved there otherwise (a file that cannot be
-/// used is rebuilt, never used). Building the hierarchies and querying release the GIL; one
+/// used is rebuilt, never used). `stopping_rule="coherence"` is
+/// [`StoppingRule::DeviationAndCoherence`]. Building the hierarchies and querying release the GIL; one
 /// back-end may be used from several Python threads (their queries take turns).
 #[pyclass(module = "haptic", name = "LodBackend", frozen)]
 pub struct PyLodBackend {
@@ -252,15 +253,26 @@ pub struct PyLodBackend {
 #[pymethods]
 impl PyLodBackend {
     #[new]
-    #[pyo3(signature = (tool, obstacles, cache_dir = None, max_contacts = Some(haptic_collision::DEFAULT_MAX_CONTACTS)))]
+    #[pyo3(signature = (tool, obstacles, cache_dir = None, max_contacts = Some(haptic_collision::DEFAULT_MAX_CONTACTS), stopping_rule = "deviation"))]
     fn new(
         py: Python<'_>,
         tool: PyRef<'_, PyMesh>,
         obstacles: &Bound<'_, PyAny>,
         cache_dir: Option<std::path::PathBuf>,
         max_contacts: Option<usize>,
+        stopping_rule: &str,
     ) -> PyResult<Self> {
         use haptic_collision::lod::CacheOutcome;
+        let rule = match stopping_rule {
+            "deviation" => StoppingRule::Deviation,
+            "coherence" => StoppingRule::DeviationAndCoherence,
+            other => {
+                return Err(input(
+                    "stopping_rule",
+                    format!("`{other}`: use \"deviation\" or \"coherence\""),
+                ));
+            }
+        };
         let obstacles = self::obstacles(obstacles)?;
         let tool = tool.mesh.clone();
         let (backend, cache) = py
@@ -269,7 +281,9 @@ impl PyLodBackend {
                 Some(dir) => LodBackend::with_cache(&tool, &obstacles, dir),
             })
             .map_err(|e| collision(&e))?;
-        let backend = backend.with_max_contacts(max_contacts);
+        let backend = backend
+            .with_max_contacts(max_contacts)
+            .with_stopping_rule(rule);
         let cache = cache
             .into_iter()
             .map(|o| match o {

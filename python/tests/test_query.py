@@ -383,6 +383,23 @@ def test_bad_obstacles_are_input_errors(make_box, cls):
     assert e.value.field == "obstacles"
 
 
+def test_stopping_rule(jaws_meshes, jaws_lod):
+    # The coherence rule only stops coarse pairs later: at threshold 0 it gives the same
+    # contacts, above it it tests at least as many node pairs; an unknown rule is refused.
+    upper, lower = jaws_meshes
+    coherent = haptic.LodBackend(upper, [(lower, IDENTITY)], stopping_rule="coherence")
+    pose = POSES["occlusion"]
+    exact, _ = jaws_lod.query(pose, delta=DELTA, threshold=0.0)
+    same, _ = coherent.query(pose, delta=DELTA, threshold=0.0)
+    assert np.array_equal(exact.p_a, same.p_a) and np.array_equal(exact.area, same.area)
+    _, paper = jaws_lod.query(pose, delta=DELTA, threshold=0.025)
+    _, finer = coherent.query(pose, delta=DELTA, threshold=0.025)
+    assert finer.node_pairs_tested >= paper.node_pairs_tested
+    with pytest.raises(haptic.InputError) as e:
+        haptic.LodBackend(upper, [(lower, IDENTITY)], stopping_rule="normals")
+    assert e.value.field == "stopping_rule"
+
+
 def test_box_over_slab(make_box):
     """A 2 cm cube 0.5 mm above a slab, within δ = 1 mm: contacts of its bottom and of the strips
     of its sides within δ of the slab's top, normals down (out of the tool); the bottom's at

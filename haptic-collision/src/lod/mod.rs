@@ -13,7 +13,10 @@
 //! tool's hierarchy against each obstacle's. A node pair is culled when its bounding volumes are
 //! farther apart than `δ`; it stops when `s_a + s_b <= ε`, with `ε = error_threshold ×`
 //! [`LodBackend::tool_bounding_radius_m`], or at two triangles; otherwise the node with the
-//! larger deviation is split.
+//! larger deviation is split. [`StoppingRule::DeviationAndCoherence`]
+//! ([`LodBackend::with_stopping_rule`]) also bounds, where a pair writes a contact, how many ways
+//! each piece's surface faces (its normal coherence, `stopping.rs`), descending the pair
+//! otherwise.
 //!
 //! A stopped pair writes one contact: the penalty integrated over the part of the tool piece
 //! that lies over the obstacle piece within `δ` of its plane (`slab.rs`,
@@ -51,6 +54,7 @@ mod cache;
 mod moments;
 pub(crate) mod query;
 mod split;
+mod stopping;
 
 use std::time::Instant;
 
@@ -62,6 +66,7 @@ pub use build::Hierarchy;
 pub use cache::{CacheOutcome, FORMAT_VERSION, HierarchyFileError, hierarchy_key};
 pub(crate) use moments::SurfaceMoments;
 use query::{Frames, Nearest, Scratch, Walk, closest_approaches, collide};
+pub use stopping::StoppingRule;
 
 use crate::compact::Compactor;
 use crate::mesh::TriMesh;
@@ -137,6 +142,7 @@ pub struct LodBackend {
     scratch: Scratch,
     compactor: Compactor,
     max_contacts: Option<usize>,
+    stopping_rule: StoppingRule,
     stats: BuildStats,
 }
 
@@ -213,6 +219,7 @@ impl LodBackend {
             },
             compactor: Compactor::new(),
             max_contacts: Some(DEFAULT_MAX_CONTACTS),
+            stopping_rule: StoppingRule::default(),
             stats,
         }
     }
@@ -228,6 +235,18 @@ impl LodBackend {
     /// Most contacts a query writes (`None`: every contact found).
     pub fn max_contacts(&self) -> Option<usize> {
         self.max_contacts
+    }
+
+    /// The same back-end stopping its walk by `rule` ([`StoppingRule`]; the paper's
+    /// [`StoppingRule::Deviation`] by default).
+    pub fn with_stopping_rule(mut self, rule: StoppingRule) -> Self {
+        self.stopping_rule = rule;
+        self
+    }
+
+    /// The walk's stopping rule.
+    pub fn stopping_rule(&self) -> StoppingRule {
+        self.stopping_rule
     }
 
     /// Build figures (time, node counts, memory).
@@ -315,6 +334,7 @@ impl CollisionBackend for LodBackend {
                 frames: &frames,
                 epsilon_m,
                 delta_m: params.delta_m,
+                min_coherence: self.stopping_rule.min_coherence(params.error_threshold),
             };
             collide(
                 &self.tool,

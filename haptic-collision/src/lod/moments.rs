@@ -1,6 +1,6 @@
 //! What each node's piece does not show of its surface: the area of the triangles below the node,
-//! and the mean and variance of their heights above the piece's plane (area-weighted, exact for
-//! triangles). A coarse pair integrates the penalty over its pieces (`crate::slab`); these
+//! the mean and variance of their heights above the piece's plane (area-weighted, exact for
+//! triangles), and how far their normals agree (the normal coherence, `stopping.rs`). A coarse pair integrates the penalty over its pieces (`crate::slab`); these
 //! moments say where the surfaces the pieces simplify lie about them. Derived from the leaves'
 //! triangles in one pass, so they are not saved with a hierarchy.
 
@@ -22,16 +22,21 @@ pub(crate) struct SurfaceMoments {
     /// convex spreads over its neighbours' (their prisms overlap by its excess), so a region
     /// over it counts for this share of its area. 1 for a leaf.
     pub cover: Real,
+    /// The normal coherence `|Σ aᵢ nᵢ| / Σ aᵢ` of the triangles below the node: 1 for a flat
+    /// patch (and a leaf), toward 0 where their faces cancel (`stopping.rs`).
+    pub coherence: Real,
 }
 
 /// The moments of every node. The children of node `i` (`i + 1` and `right`) come after it,
-/// so one pass from the end sums their raw moments (`∫dA`, `∫x dA`, `∫x xᵀ dA`); a leaf's piece
-/// is its triangle.
+/// so one pass from the end sums their raw moments (`∫dA`, `∫x dA`, `∫x xᵀ dA`, `∫n dA`); a
+/// leaf's piece is its triangle.
 pub(crate) fn surface_moments(nodes: &[Node], piece: &[Vec3]) -> Vec<SurfaceMoments> {
     // Raw moments about the first leaf's first vertex, so that they stay small for a patch far
     // from the mesh's origin.
     let origin = piece.first().copied().unwrap_or_else(Vec3::zeros);
     let mut raw = vec![(0.0, Vec3::zeros(), Mat3::zeros()); nodes.len()];
+    // ∫n dA: the vector area.
+    let mut vector_area = vec![Vec3::zeros(); nodes.len()];
     let mut out = vec![SurfaceMoments::default(); nodes.len()];
     for i in (0..nodes.len()).rev() {
         let n = &nodes[i];
@@ -40,7 +45,8 @@ pub(crate) fn surface_moments(nodes: &[Node], piece: &[Vec3]) -> Vec<SurfaceMome
             match piece.get(s..s + n.piece_len as usize) {
                 Some([a, b, c]) => {
                     let (a, b, c) = (a - origin, b - origin, c - origin);
-                    let area = 0.5 * (b - a).cross(&(c - a)).norm();
+                    vector_area[i] = 0.5 * (b - a).cross(&(c - a));
+                    let area = vector_area[i].norm();
                     let sum = a + b + c;
                     // ∫x xᵀ over a triangle: A/12 (Σ vᵢ vᵢᵀ + (Σ vᵢ)(Σ vᵢ)ᵀ).
                     let second = (a * a.transpose()
@@ -56,12 +62,19 @@ pub(crate) fn surface_moments(nodes: &[Node], piece: &[Vec3]) -> Vec<SurfaceMome
             let zero = (0.0, Vec3::zeros(), Mat3::zeros());
             let l = raw.get(i + 1).copied().unwrap_or(zero);
             let r = raw.get(n.right as usize).copied().unwrap_or(zero);
+            let va = |j: usize| vector_area.get(j).copied().unwrap_or_else(Vec3::zeros);
+            vector_area[i] = va(i + 1) + va(n.right as usize);
             (l.0 + r.0, l.1 + r.1, l.2 + r.2)
         };
         let (area, first, second) = raw[i];
         let mut m = SurfaceMoments {
             area_m2: area,
             cover: 1.0,
+            coherence: if area > 0.0 {
+                (vector_area[i].norm() / area).min(1.0)
+            } else {
+                1.0
+            },
             ..SurfaceMoments::default()
         };
         if !n.is_leaf() && area > 0.0 && n.normal.iter().all(|x| x.is_finite()) {
@@ -141,8 +154,10 @@ mod tests {
             }
             let height = |x: &Vec3| node.normal.dot(&(x - node.plane_point));
             let (mut a, mut s1, mut s2) = (0.0, 0.0, 0.0);
+            let mut vector_area = Vec3::zeros();
             for t in &tris_below {
                 let area = 0.5 * (t[1] - t[0]).cross(&(t[2] - t[0])).norm();
+                vector_area += 0.5 * (t[1] - t[0]).cross(&(t[2] - t[0]));
                 // Edge midpoints: exact for quadratics.
                 for (p, q) in [(0, 1), (1, 2), (2, 0)] {
                     let hm = height(&((t[p] + t[q]) * 0.5));
@@ -153,6 +168,13 @@ mod tests {
             }
             let got = moments[i];
             assert!((got.area_m2 - a).abs() <= 1e-12 * a);
+            let coherence = vector_area.norm() / a;
+            assert!(
+                (got.coherence - coherence).abs() < 1e-12,
+                "node {i}: coherence {} vs {coherence}",
+                got.coherence
+            );
+            assert!(got.coherence <= 1.0);
             if node.is_leaf() {
                 assert_eq!((got.height_mean_m, got.height_var_m2), (0.0, 0.0));
                 continue;

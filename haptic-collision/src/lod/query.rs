@@ -180,6 +180,9 @@ pub(crate) struct Walk<'a> {
     pub epsilon_m: Real,
     /// Distance tolerance δ (m).
     pub delta_m: Real,
+    /// The least normal coherence both coarse pieces of a pair that writes a contact must have
+    /// to stop there ([`super::StoppingRule::min_coherence`]); below 0, any.
+    pub min_coherence: Real,
 }
 
 /// Scratch reused by every query, so that a query allocates nothing once warm.
@@ -292,6 +295,15 @@ pub(crate) fn collide(
             let (ma, mb) = (tool.moments_of(ia), obs.moments_of(ib));
             let offset = HeightOffset::of_pieces(ma, mb, na.dot(&b.normal));
             let regions = pair_region(&buf[..len], pb, &b.normal, delta, offset);
+            // The coherence rule (`stopping.rs`): a contact between pieces whose surfaces face
+            // too many ways is not written; the pair is descended like any other.
+            if regions.region.is_some()
+                && !(leaf_a && leaf_b)
+                && ma.coherence.min(mb.coherence) < walk.min_coherence
+            {
+                descend(ia, a, ib, b, stack);
+                continue;
+            }
             if let Some(r) = regions.region {
                 let pc = r.pair_contact(&b.normal);
                 let (fa, fb) = if leaf_a && leaf_b {
@@ -313,25 +325,31 @@ pub(crate) fn collide(
             }
             continue;
         }
-        // Descend the node with the larger deviation (ties: the larger one).
-        let split_a = if leaf_a {
-            false
-        } else if leaf_b {
-            true
-        } else if a.deviation != b.deviation {
-            a.deviation > b.deviation
-        } else {
-            a.radius >= b.radius
-        };
-        if split_a {
-            stack.push((a.right, ib));
-            stack.push((ia + 1, ib));
-        } else {
-            stack.push((ia, b.right));
-            stack.push((ia, ib + 1));
-        }
+        descend(ia, a, ib, b, stack);
     }
     Ok(())
+}
+
+/// Pushes the children pairs of `(ia, ib)`, not both leaves: the node with the larger deviation
+/// is split (ties: the larger one).
+#[inline]
+fn descend(ia: u32, a: &Node, ib: u32, b: &Node, stack: &mut Vec<(u32, u32)>) {
+    let split_a = if a.is_leaf() {
+        false
+    } else if b.is_leaf() {
+        true
+    } else if a.deviation != b.deviation {
+        a.deviation > b.deviation
+    } else {
+        a.radius >= b.radius
+    };
+    if split_a {
+        stack.push((a.right, ib));
+        stack.push((ia + 1, ib));
+    } else {
+        stack.push((ia, b.right));
+        stack.push((ia, ib + 1));
+    }
 }
 
 /// The area a closest-approach contact stands for (m²): the compaction's floor, 10⁻¹⁸ m², so

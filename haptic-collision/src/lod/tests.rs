@@ -4,7 +4,7 @@ use proptest::prelude::*;
 
 use super::build::Hierarchy;
 use super::testmesh::{Lcg, bumpy_sphere, cuboid, icosphere_raw, mesh};
-use super::{LodBackend, LodError};
+use super::{LodBackend, LodError, StoppingRule};
 use crate::geometry::{closest_point_on_triangle, point_polygon_distance, triangle_normal};
 use crate::mesh::TriMesh;
 use crate::reference::ReferenceBackend;
@@ -193,9 +193,16 @@ proptest! {
     /// Threshold 0 with every contact written is exact: the same contacts, with the same
     /// areas, as the all-pairs reference.
     #[test]
-    fn threshold_zero_matches_brute_force(seed in 0u64..1_000_000, pose_seed in 0u64..1_000_000) {
+    fn threshold_zero_matches_brute_force(
+        seed in 0u64..1_000_000,
+        pose_seed in 0u64..1_000_000,
+        rule in prop_oneof![Just(StoppingRule::Deviation), Just(StoppingRule::DeviationAndCoherence)],
+    ) {
         let (tool, obstacles) = scene(seed);
-        let mut lod = LodBackend::new(&tool, &obstacles).unwrap().with_max_contacts(None);
+        let mut lod = LodBackend::new(&tool, &obstacles)
+            .unwrap()
+            .with_max_contacts(None)
+            .with_stopping_rule(rule);
         let mut reference = ReferenceBackend::new(&tool, &obstacles).unwrap();
         let pose = random_pose(&mut Lcg(pose_seed), 0.09);
         let params = QueryParams::new(0.01, 0.0).unwrap();
@@ -280,7 +287,12 @@ proptest! {
     /// Above 0: never more node pairs, and the closest approach is off by at most ε when the
     /// exact configuration is apart (D > ε) and within reach (D < δ − ε).
     #[test]
-    fn threshold_error_is_bounded(seed in 0u64..1_000_000, gap in 0.002f64..0.012, threshold in 0.005f64..0.05) {
+    fn threshold_error_is_bounded(
+        seed in 0u64..1_000_000,
+        gap in 0.002f64..0.012,
+        threshold in 0.005f64..0.05,
+        rule in prop_oneof![Just(StoppingRule::Deviation), Just(StoppingRule::DeviationAndCoherence)],
+    ) {
         let tool = bumpy_sphere(2, 0.03, 0.03, seed);
         let obstacle = bumpy_sphere(2, 0.04, 0.03, seed + 11);
         let mut rng = Lcg(seed);
@@ -288,7 +300,7 @@ proptest! {
         let mut pose = random_pose(&mut rng, 0.0);
         pose.position = dir * (0.03 + 0.04 + gap);
         let obstacles = vec![(obstacle, Pose::identity())];
-        let mut lod = LodBackend::new(&tool, &obstacles).unwrap();
+        let mut lod = LodBackend::new(&tool, &obstacles).unwrap().with_stopping_rule(rule);
         let delta = 0.02;
         let eps = threshold * lod.tool_bounding_radius_m();
         let mut exact = ContactSet::new();
@@ -719,4 +731,96 @@ proptest! {
         prop_assert!(norm(&w0) > 0.0, "no contact: {} raw", a.len());
         prop_assert!(norm(&diff) <= 0.05 * norm(&w0), "{} raw, {} compact: error {}", a.len(), b.len(), norm(&diff) / norm(&w0));
     }
+}
+
+/// A corrugated sheet over `[−half_x, half_x] × [−half_y, half_y]`: `z = tri(x)`, a triangle
+/// wave of period `period` and flanks at 45° (peak to peak `period / 2`), its kinks on grid
+/// lines so that every flank is exact; facing `+z` (`up`) or `−z`.
+fn corrugated(period: Real, half_x: Real, half_y: Real, up: bool) -> TriMesh {
+    let kx = (2.0 * half_x / (0.5 * period)).round() as usize;
+    let ky = 4;
+    let tri = |x: Real| {
+        let t = ((x / period).rem_euclid(1.0) - 0.5).abs();
+        period * (0.25 - t)
+    };
+    let mut vertices = Vec::new();
+    for j in 0..=ky {
+        for i in 0..=kx {
+            let x = -half_x + 0.5 * period * i as Real;
+            let y = -half_y + 2.0 * half_y * j as Real / ky as Real;
+            vertices.push(Vec3::new(x, y, tri(x)));
+        }
+    }
+    let at = |i: usize, j: usize| (j * (kx + 1) + i) as u32;
+    let mut triangles = Vec::new();
+    for j in 0..ky {
+        for i in 0..kx {
+            let (a, b, c, d) = (at(i, j), at(i + 1, j), at(i + 1, j + 1), at(i, j + 1));
+            if up {
+                triangles.extend([[a, b, c], [a, c, d]]);
+            } else {
+                triangles.extend([[a, c, b], [a, d, c]]);
+            }
+        }
+    }
+    mesh(vertices, triangles)
+}
+
+/// Two mating corrugated sheets, the tool shifted sideways so that only the flanks facing one
+/// way come within δ (a thread pushed along its axis, in miniature): the surface pushes the
+/// tool sideways as much as up. At a threshold whose `ε` exceeds the corrugation, the paper's
+/// rule stops at flat pieces across whole periods (normal coherence cos 45°) and pushes straight
+/// up; the coherence rule splits them down to the flanks and gives the all-pairs force.
+#[test]
+fn the_coherence_rule_keeps_the_force_of_surfaces_with_small_features() {
+    let period = 0.008;
+    let obstacle = corrugated(period, 0.032, 0.016, true);
+    let tool = corrugated(period, 0.032, 0.016, false);
+    // Tool flanks 1 mm above the obstacle's, shifted 0.6 mm along x: the rising flanks are
+    // 0.28 mm apart (normal gap (1 − 0.6) / √2 mm), the falling ones 1.13 mm, beyond δ.
+    let pose = Pose {
+        position: Vec3::new(0.0006, 0.0, 0.001),
+        orientation: UnitQuaternion::identity(),
+    };
+    let delta = 0.001;
+    let obstacles = vec![(obstacle, Pose::identity())];
+    let mut reference = LodBackend::new(&tool, &obstacles)
+        .unwrap()
+        .with_max_contacts(None);
+    let radius = reference.tool_bounding_radius_m();
+    let force = |backend: &mut LodBackend, threshold: Real| {
+        let mut out = ContactSet::new();
+        backend
+            .query(
+                &pose,
+                &QueryParams::new(delta, threshold).unwrap(),
+                &mut out,
+            )
+            .unwrap();
+        let w = integrated_penalty(&out, delta, &pose.position, radius);
+        Vec3::new(w[0], w[1], w[2])
+    };
+    let f0 = force(&mut reference, 0.0);
+    // `Σ a (d + δ) n` along the normals out of the tool, (1, 0, −1)/√2: the surface pushes the
+    // tool toward −x and up, equally.
+    assert!(f0.x > 0.0 && (f0.x + f0.z).abs() < 1e-6 * f0.x, "{f0:?}");
+    // ε = 0.15 × radius ≈ 5 mm: more than the corrugation's 4 mm peak to peak.
+    let threshold = 0.15;
+    assert!(threshold * radius > 0.5 * period);
+    let rel = |f: Vec3| (f - f0).norm() / f0.norm();
+    let mut paper = reference.clone().with_max_contacts(Some(256));
+    let mut coherent = paper
+        .clone()
+        .with_stopping_rule(StoppingRule::DeviationAndCoherence);
+    let (fp, fc) = (
+        force(&mut paper, threshold),
+        force(&mut coherent, threshold),
+    );
+    assert!(rel(fp) > 0.3, "paper's rule {fp:?} against {f0:?}");
+    // Each piece that writes a contact stands for its surface within 1 − c ≤ the threshold
+    // (here 2 %: pieces across a kink stop at c ≥ 0.85).
+    assert!(
+        rel(fc) < threshold && rel(fc) < 0.1 * rel(fp),
+        "coherence rule {fc:?} against {f0:?}"
+    );
 }

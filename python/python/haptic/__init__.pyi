@@ -288,7 +288,8 @@ class QueryStats:
 class LodBackend:
     """The sensation-preserving multiresolution collision back-end (Otaduy & Lin).
 
-    ``LodBackend(tool, obstacles, cache_dir=None, max_contacts=256)``: ``tool`` the tool mesh in its body frame
+    ``LodBackend(tool, obstacles, cache_dir=None, max_contacts=256, stopping_rule="deviation")``:
+    ``tool`` the tool mesh in its body frame
     (the frame whose pose the queries give), ``obstacles`` a list of ``(Mesh, pose)`` pairs
     placing each obstacle in the world. With ``cache_dir``, each hierarchy is read back from that
     folder when it was saved there for the same mesh and build (the jaws: 0.06 s instead of about
@@ -302,9 +303,16 @@ class LodBackend:
     ``QueryStats.raw_contacts`` says how many were found. ``max_contacts=None`` returns every
     contact found (at ``threshold=0``, the all-pairs reference).
 
+    ``stopping_rule`` says where the walk may stop at coarse pieces: ``"deviation"`` (the
+    paper's: the pieces' surface deviations within the threshold) or ``"coherence"`` (also,
+    where a pair writes a contact, each piece's surface normals agreeing within the threshold,
+    ``1 - |sum a n| / sum a <= threshold``: more accurate on threads, tines and other features
+    smaller than the threshold, slower where coarse curved pieces touch).
+
     Raises:
         InputError: an obstacle that is not a ``(Mesh, pose)`` pair (``.field ==
-            "obstacles[i]"``) or a bad pose (``"obstacles[i].pose"``).
+            "obstacles[i]"``), a bad pose (``"obstacles[i].pose"``), or an unknown
+            ``stopping_rule`` (``"stopping_rule"``).
         CollisionError: hierarchies that cannot be built.
     """
 
@@ -314,6 +322,7 @@ class LodBackend:
         obstacles: Iterable[tuple[Mesh, _Pose]],
         cache_dir: str | os.PathLike[str] | None = None,
         max_contacts: int | None = 256,
+        stopping_rule: Literal["deviation", "coherence"] = "deviation",
     ) -> None: ...
     @property
     def cache_report(self) -> list[tuple[str, str]]:

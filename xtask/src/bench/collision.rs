@@ -96,7 +96,11 @@ pub(super) struct SceneMeasure {
 
 /// Measures `scene`: builds both back-ends, replays its poses `passes` times with parry and
 /// with LOD at each threshold, and prints a line per run.
-pub(super) fn measure(scene: &Scene, passes: usize) -> anyhow::Result<SceneMeasure> {
+pub(super) fn measure(
+    scene: &Scene,
+    passes: usize,
+    rule: super::RuleArg,
+) -> anyhow::Result<SceneMeasure> {
     println!(
         "collision bench: scene {}, {} + {} triangles, {} poses × {passes}, δ = {} mm",
         scene.name,
@@ -108,7 +112,7 @@ pub(super) fn measure(scene: &Scene, passes: usize) -> anyhow::Result<SceneMeasu
     let obstacles = [(scene.obstacle.clone(), Pose::identity())];
 
     let t = Instant::now();
-    let mut lod = LodBackend::new(&scene.tool, &obstacles)?;
+    let mut lod = LodBackend::new(&scene.tool, &obstacles)?.with_stopping_rule(rule.rule());
     let lod_build_s = t.elapsed().as_secs_f64();
     let bs = lod.build_stats().clone();
     let t = Instant::now();
@@ -192,12 +196,12 @@ pub(super) fn measure(scene: &Scene, passes: usize) -> anyhow::Result<SceneMeasu
 /// Runs the benchmark on one scene, or the suite (`--suite`).
 pub fn run(args: &super::CollisionArgs, out: &crate::OutArgs) -> anyhow::Result<()> {
     if args.suite {
-        return super::suite::run(out, args.only.as_deref()).map(|_| ());
+        return super::suite::run(out, args.only.as_deref(), args.stopping_rule).map(|_| ());
     }
     let dir = out.dir("collision")?;
     let scene = load_scene(args, POSES)?;
     let passes = if out.quick { 1 } else { 3 };
-    let m = measure(&scene, passes)?;
+    let m = measure(&scene, passes, args.stopping_rule)?;
     let bs = &m.lod_build;
     let report = CollisionReport {
         scene: scene.name.clone(),
@@ -207,6 +211,7 @@ pub fn run(args: &super::CollisionArgs, out: &crate::OutArgs) -> anyhow::Result<
         poses: scene.poses.len(),
         passes,
         tool_bounding_radius_m: m.radius_m,
+        stopping_rule: args.stopping_rule.name(),
         wrench: WRENCH,
         builds: vec![
             Build {
@@ -375,6 +380,8 @@ struct CollisionReport<'a> {
     poses: usize,
     passes: usize,
     tool_bounding_radius_m: Real,
+    /// The LOD walk's stopping rule (`--stopping-rule`).
+    stopping_rule: &'static str,
     wrench: &'static str,
     builds: Vec<Build>,
     lod_build_s: Real,

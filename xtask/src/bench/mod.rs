@@ -50,6 +50,37 @@ pub struct CollisionArgs {
     /// `--only boxes-coarse,fork-in-mug`. The worst figures are then over those scenes only.
     #[arg(long, value_delimiter = ',', requires = "suite")]
     pub only: Option<Vec<String>>,
+    /// The LOD walk's stopping rule: `deviation` (the paper's, the default) or `coherence`
+    /// (also the pieces' normal coherence where a pair writes a contact).
+    #[arg(long, value_enum, default_value_t = RuleArg::Deviation)]
+    pub stopping_rule: RuleArg,
+}
+
+/// `--stopping-rule`: [`haptic_collision::StoppingRule`] on the command line.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
+pub enum RuleArg {
+    /// [`haptic_collision::StoppingRule::Deviation`].
+    Deviation,
+    /// [`haptic_collision::StoppingRule::DeviationAndCoherence`].
+    Coherence,
+}
+
+impl RuleArg {
+    /// The library's rule.
+    pub fn rule(self) -> haptic_collision::StoppingRule {
+        match self {
+            Self::Deviation => haptic_collision::StoppingRule::Deviation,
+            Self::Coherence => haptic_collision::StoppingRule::DeviationAndCoherence,
+        }
+    }
+
+    /// Its name in the JSON reports (the command line's).
+    pub fn name(self) -> &'static str {
+        match self {
+            Self::Deviation => "deviation",
+            Self::Coherence => "coherence",
+        }
+    }
 }
 
 /// Runs a benchmark.
@@ -58,5 +89,34 @@ pub fn run(args: &BenchArgs) -> anyhow::Result<()> {
         None | Some(Bench::Perf) => perf::run(&args.out),
         Some(Bench::Collision(c)) => collision::run(c, &args.out),
         Some(Bench::Realtime) => realtime::run(&args.out),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use clap::Parser;
+
+    use super::*;
+
+    #[derive(Parser)]
+    struct Cmd {
+        #[command(flatten)]
+        collision: CollisionArgs,
+    }
+
+    #[test]
+    fn stopping_rule_is_the_papers_unless_asked() {
+        let rule = |args: &[&str]| {
+            Cmd::try_parse_from(std::iter::once("collision").chain(args.iter().copied()))
+                .map(|c| c.collision.stopping_rule)
+        };
+        assert_eq!(rule(&[]).unwrap(), RuleArg::Deviation);
+        let coherence = rule(&["--stopping-rule", "coherence"]).unwrap();
+        assert_eq!(
+            coherence.rule(),
+            haptic_collision::StoppingRule::DeviationAndCoherence
+        );
+        assert_eq!(coherence.name(), "coherence");
+        assert!(rule(&["--stopping-rule", "normals"]).is_err());
     }
 }

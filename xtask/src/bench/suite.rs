@@ -90,6 +90,7 @@ fn file_scene(name: &str, n: usize) -> anyhow::Result<Entry> {
         scale: None,
         suite: false,
         only: None,
+        stopping_rule: super::RuleArg::Deviation,
     };
     Ok(Entry {
         scene: collision::load_scene(&args, n)?,
@@ -370,6 +371,8 @@ struct SuiteReport<'a> {
     /// The scenes asked for with `--only`, or `null` for the whole suite (whose worst figures
     /// are then the goals).
     only: Option<Vec<String>>,
+    /// The LOD walk's stopping rule (`--stopping-rule`).
+    stopping_rule: &'static str,
     poses_per_scene: usize,
     passes: usize,
     wrench: &'static str,
@@ -400,7 +403,11 @@ fn select(entries: &mut Vec<Entry>, only: &[String]) -> anyhow::Result<()> {
 
 /// Runs the suite (or the scenes named in `only`), writes `suite.json` and the charts, and returns its worst figures (which
 /// `cargo xtask bench` also writes into `perf.json`).
-pub(super) fn run(out: &crate::OutArgs, only: Option<&[String]>) -> anyhow::Result<SuiteWorst> {
+pub(super) fn run(
+    out: &crate::OutArgs,
+    only: Option<&[String]>,
+    rule: super::RuleArg,
+) -> anyhow::Result<SuiteWorst> {
     let started = Instant::now();
     let dir = out.dir("collision")?;
     let (n, passes) = if out.quick {
@@ -424,7 +431,7 @@ pub(super) fn run(out: &crate::OutArgs, only: Option<&[String]>) -> anyhow::Resu
     }
     let mut measured = Vec::new();
     for e in &entries {
-        let m = collision::measure(&e.scene, passes)?;
+        let m = collision::measure(&e.scene, passes, rule)?;
         super::chart::work_precision_chart(
             &dir.join(format!("suite_{}.svg", e.scene.name)),
             &e.scene.name,
@@ -589,6 +596,7 @@ pub(super) fn run(out: &crate::OutArgs, only: Option<&[String]>) -> anyhow::Resu
     let report = SuiteReport {
         quick: out.quick,
         only: only.map(<[String]>::to_vec),
+        stopping_rule: rule.name(),
         poses_per_scene: n,
         passes,
         wrench: collision::WRENCH,
