@@ -1,8 +1,9 @@
 //! What each node's piece does not show of its surface: the area of the triangles below the node,
 //! the mean and variance of their heights above the piece's plane (area-weighted, exact for
-//! triangles), and how far their normals agree (the normal coherence, `stopping.rs`). A coarse pair integrates the penalty over its pieces (`crate::slab`); these
-//! moments say where the surfaces the pieces simplify lie about them. Derived from the leaves'
-//! triangles in one pass, so they are not saved with a hierarchy.
+//! triangles), and how far their normals agree (the normal coherence, `stopping.rs`). A coarse
+//! pair integrates the penalty over its pieces (`crate::slab`); these moments say where the
+//! surfaces the pieces simplify lie about them. Derived from the leaves' triangles in one pass,
+//! so they are not saved with a hierarchy.
 
 use haptic_core::{Mat3, Real, Vec3};
 
