@@ -3,15 +3,17 @@
 //!
 //! **How "relative 1e-6" is measured.** Central differences with a step `h_j = 1e-6 s_j`, where
 //! `s_j` is a typical magnitude of state component `j` (0.1 m for positions, 1 for the
-//! quaternion, `max(|P|, 0.01 m)` kg m/s for momentum, `max(|L|, 0.01 λ_min)` for angular
+//! quaternion, `max(|P|∞, 0.01 m)` kg m/s for momentum, `max(|L|∞, 10⁻¹²)` kg m²/s for angular
 //! momentum). Column `j` of the analytic Jacobian `a_j` must match the difference quotient `d_j` to
 //! `|a_j - d_j|₂ <= 1e-6 max(|a_j|₂, |d_j|₂) + 1e-9 max_k(|a_k|₂ s_k) / s_j`: relative in the
 //! 2-norm per column, with an absolute floor one millionth below the tolerance for columns that
 //! are (nearly) zero, scaled so that it corresponds to a change of the function under a typical
 //! perturbation. The difference quotient is Richardson-extrapolated from steps `h` and `h/2`, so
 //! its truncation error is `O(h⁴)` (functions with a large third derivative, as a smoothstep
-//! over a narrow band, need it), and its rounding error `O(ε/h)` ≈ 1e-10 is far below the
-//! tolerance.
+//! over a narrow band, need it). Its rounding error, `O(ε |f| / h)`, is usually far below the
+//! tolerance; where it is not (a column whose entries are small beside the function's values, as
+//! a force that does not depend on a tiny angular momentum), it is added to the tolerance, with
+//! the factor 3 that the extrapolation puts on it.
 
 use haptic_core::math::{IL, IP, IQ, IX};
 use haptic_core::{Mat3, Quat4, Real, RigidBody, StateVector, Vec3};
@@ -144,8 +146,9 @@ pub fn column_check<const R: usize>(
         let an = jac.column(j).into_owned();
         let err = (an - fd).norm();
         // Relative error, plus the floor of the other columns, plus the round-off of the
-        // difference quotient itself (a few ulps of the values, divided by 2h).
-        let roundoff = 8.0 * Real::EPSILON * f(&yp).norm().max(f(&ym).norm()) / (2.0 * h);
+        // difference quotient itself: a few ulps of the values divided by 2h for `d_h`, twice
+        // that for `d_h2`, so (4 · 2 + 1) / 3 = 3 times that for their extrapolation.
+        let roundoff = 3.0 * 8.0 * Real::EPSILON * f(&yp).norm().max(f(&ym).norm()) / (2.0 * h);
         let tol = FD_RTOL * an.norm().max(fd.norm()) + 1e-9 * floor / s[j] + roundoff;
         if err > tol || err.is_nan() {
             return Err(format!(
