@@ -14,7 +14,8 @@ use haptic_core::{
 };
 use haptic_device::{HandDevice, ScriptedDevice, Waypoint};
 use haptic_runtime::scene::{
-    ContactSpec, CouplingSpec, DeviceSpec, ObstacleSpec, PoseSpec, RateSpec, ToolSpec, WaypointSpec,
+    ContactSpec, CouplingSpec, DeviceSpec, ObstacleSpec, PoseSpec, RateSpec, StoppingRuleSpec,
+    ToolSpec, WaypointSpec,
 };
 use haptic_runtime::{SceneParts, scene::Scene as SceneSpec};
 use pyo3::prelude::*;
@@ -65,7 +66,7 @@ impl PyScene {
         clusters = 5, error_threshold = 0.0, linearized = true, fixed_frames = true,
         haptic_rate_hz = 1000.0,
         contact_rate_hz = None, waypoints = None, max_force_n = 10.0, max_torque_nm = 1.0,
-        workspace_half_m = 0.5, time_budget_s = None))]
+        workspace_half_m = 0.5, time_budget_s = None, stopping_rule = "deviation"))]
     fn from_parts(
         py: Python<'_>,
         tool: PyRef<'_, PyMesh>,
@@ -91,7 +92,18 @@ impl PyScene {
         max_torque_nm: f64,
         workspace_half_m: f64,
         time_budget_s: Option<f64>,
+        stopping_rule: &str,
     ) -> PyResult<Self> {
+        let stopping_rule = match stopping_rule {
+            "deviation" => StoppingRuleSpec::Deviation,
+            "coherence" => StoppingRuleSpec::Coherence,
+            other => {
+                return Err(input(
+                    "stopping_rule",
+                    format!("`{other}`: use \"deviation\" or \"coherence\""),
+                ));
+            }
+        };
         let tool_pose = match tool_pose {
             Some(p) => convert::pose(p, "tool_pose")?,
             None => Pose::identity(),
@@ -157,6 +169,7 @@ impl PyScene {
                 linearized,
                 fixed_frames,
                 time_budget_s,
+                stopping_rule,
             },
             rates: RateSpec {
                 haptic_hz: haptic_rate_hz,
@@ -291,7 +304,7 @@ impl AnyBackend {
     pub fn new(name: &str, parts: &SceneParts) -> PyResult<Self> {
         match name {
             "lod" => LodBackend::new(&parts.tool_mesh, &parts.obstacles)
-                .map(AnyBackend::Lod)
+                .map(|b| AnyBackend::Lod(b.with_stopping_rule(parts.stopping_rule)))
                 .map_err(|e| crate::errors::collision(&e)),
             // A time budget picks LOD thresholds: parry has none to pick.
             "parry" if parts.config.query_budget.is_some() => Err(input(

@@ -323,6 +323,9 @@ def test_scene_from_parts_contact_models_between_updates(make_box):
     }
     default = haptic.run_virtual(haptic.Scene.from_parts(**common, fixed_frames=True), 0.8)
     assert np.array_equal(default.tool_pose, runs["fixed_frames"].tool_pose)
+    # The stopping rule is the LOD back-end's: at threshold 0 both rules give the same run.
+    coherent = haptic.run_virtual(haptic.Scene.from_parts(**common, stopping_rule="coherence"), 0.8)
+    assert np.array_equal(coherent.tool_pose, runs["fixed_frames"].tool_pose)
     late = runs["tangents"].t > 0.7
     for name in ("fixed_frames", "tangents"):
         run = runs[name]
@@ -366,6 +369,16 @@ def test_scene_errors(tmp_path, mesh_paths, make_box):
     with pytest.raises(haptic.InputError) as e:
         haptic.Scene.from_parts(tool=tool, mass_kg=0.05, tool_pose=[0, 0, 0, 2, 0, 0, 0])
     assert e.value.field == "tool_pose"
+    with pytest.raises(haptic.InputError) as e:
+        haptic.Scene.from_parts(tool=tool, mass_kg=0.05, stopping_rule="normals")
+    assert e.value.field == "stopping_rule"
+    bad_rule = tmp_path / "bad-rule.toml"
+    bad_rule.write_text(
+        f'[tool]\nmesh = "{mesh_paths["teaspoon"].as_posix()}"\nmass_kg = 0.02\n'
+        '[contact]\nstopping_rule = "normals"\n'
+    )
+    with pytest.raises(haptic.SceneError):
+        haptic.Scene.load(bad_rule)
 
 
 # --- bad run arguments ------------------------------------------------------------------------

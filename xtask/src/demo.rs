@@ -135,7 +135,8 @@ pub fn run(args: &DemoArgs) -> anyhow::Result<()> {
     };
     let summary = match args.backend.as_str() {
         "lod" => {
-            let backend = crate::common::lod_backend(&parts.tool_mesh, &parts.obstacles)?;
+            let backend = crate::common::lod_backend(&parts.tool_mesh, &parts.obstacles)?
+                .with_stopping_rule(parts.stopping_rule);
             with_integrator(kind, backend, &parts, args, header.as_ref())
         }
         "parry" => {

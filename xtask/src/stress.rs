@@ -344,7 +344,8 @@ pub fn run(args: &StressArgs) -> anyhow::Result<()> {
     let runs = total.div_ceil(steps_per_run).max(4);
     let scene = Scene::load(&repo_root().join("xtask/scenes/spoon-cup.toml"))?;
     let base = scene.assemble()?;
-    let backend = LodBackend::new(&base.tool_mesh, &base.obstacles)?;
+    let backend =
+        LodBackend::new(&base.tool_mesh, &base.obstacles)?.with_stopping_rule(base.stopping_rule);
     println!(
         "stress: {runs} runs of {RUN_S} s ({} steps) over the spoon in the cup",
         runs * steps_per_run

@@ -30,6 +30,9 @@ pub struct SceneParts {
     pub limits: haptic_core::DeviceLimits,
     /// The simulated hand's target trajectory (handle poses).
     pub waypoints: Vec<haptic_device::Waypoint>,
+    /// The stopping rule a multiresolution back-end built for the scene uses
+    /// (`LodBackend::with_stopping_rule`; the scene's `contact.stopping_rule`).
+    pub stopping_rule: haptic_collision::StoppingRule,
 }
 
 impl SceneParts {
@@ -189,6 +192,7 @@ impl Scene {
             contact_hz: self.rates.contact_hz,
             limits,
             waypoints,
+            stopping_rule: self.contact.stopping_rule.rule(),
         })
     }
 }

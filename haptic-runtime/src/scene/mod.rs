@@ -23,6 +23,7 @@
 //! error_threshold = 0.0
 //! linearized = true
 //! fixed_frames = true
+//! stopping_rule = "deviation"   # or "coherence" (haptic_collision::StoppingRule)
 //!
 //! [rates]
 //! haptic_hz = 1000.0
@@ -43,5 +44,5 @@ mod tests;
 pub use assembly::SceneParts;
 pub use spec::{
     ContactSpec, CouplingSpec, DeviceSpec, ObstacleSpec, PoseSpec, RateSpec, Scene, SceneError,
-    ToolSpec, WaypointSpec,
+    StoppingRuleSpec, ToolSpec, WaypointSpec,
 };

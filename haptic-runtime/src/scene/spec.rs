@@ -165,6 +165,31 @@ pub struct ContactSpec {
     /// A time budget per contact update (s): the error threshold is then picked update by
     /// update to fit it, and `error_threshold` is not used (see `haptic_runtime::budget`).
     pub time_budget_s: Option<Real>,
+    /// Where the multiresolution back-end may stop at coarse pieces: `"deviation"` (the
+    /// paper's, the default) or `"coherence"` (also the pieces' normal coherence where they
+    /// touch; `haptic_collision::StoppingRule`).
+    pub stopping_rule: StoppingRuleSpec,
+}
+
+/// The LOD back-end's stopping rule as a scene names it (`haptic_collision::StoppingRule`).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum StoppingRuleSpec {
+    /// `haptic_collision::StoppingRule::Deviation`: the paper's rule.
+    #[default]
+    Deviation,
+    /// `haptic_collision::StoppingRule::DeviationAndCoherence`.
+    Coherence,
+}
+
+impl StoppingRuleSpec {
+    /// The back-end's rule.
+    pub fn rule(self) -> haptic_collision::StoppingRule {
+        match self {
+            Self::Deviation => haptic_collision::StoppingRule::Deviation,
+            Self::Coherence => haptic_collision::StoppingRule::DeviationAndCoherence,
+        }
+    }
 }
 
 impl Default for ContactSpec {
@@ -178,6 +203,7 @@ impl Default for ContactSpec {
             linearized: true,
             fixed_frames: true,
             time_budget_s: None,
+            stopping_rule: StoppingRuleSpec::Deviation,
         }
     }
 }

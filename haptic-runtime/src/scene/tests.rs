@@ -37,6 +37,25 @@ fn the_contact_model_between_updates_is_fixed_frames_unless_asked() {
 }
 
 #[test]
+fn the_stopping_rule_is_the_papers_unless_asked() {
+    use haptic_collision::StoppingRule::{Deviation, DeviationAndCoherence};
+    let with = |contact: &str| {
+        let text = format!("{MINIMAL}\n[contact]\n{contact}\n");
+        Scene::from_toml_str(&text, Path::new(".")).map(|s| s.contact.stopping_rule.rule())
+    };
+    assert_eq!(with("").unwrap(), Deviation);
+    assert_eq!(with("stopping_rule = \"deviation\"").unwrap(), Deviation);
+    assert_eq!(
+        with("stopping_rule = \"coherence\"").unwrap(),
+        DeviationAndCoherence
+    );
+    match with("stopping_rule = \"normals\"") {
+        Err(SceneError::Parse(m)) => assert!(m.contains("stopping_rule"), "{m}"),
+        other => panic!("expected a parse error, got {other:?}"),
+    }
+}
+
+#[test]
 fn unknown_field_is_named() {
     let text = "[tool]\nmesh = \"a.stl\"\nmass_kg = 0.01\nmass_g = 3\n";
     match Scene::from_toml_str(text, Path::new(".")) {

@@ -511,6 +511,7 @@ class Scene:
         max_torque_nm: float = 1.0,
         workspace_half_m: float = 0.5,
         time_budget_s: float | None = None,
+        stopping_rule: Literal["deviation", "coherence"] = "deviation",
     ) -> Scene:
         """A scene from meshes and parameters: the fields of a scene file, with the same
         defaults, all by keyword.
@@ -545,9 +546,12 @@ class Scene:
                 threshold is then picked update by update to fit it and ``error_threshold`` is
                 not used (errors name ``"contact.time_budget_s"``); with a budget, virtual-time
                 runs depend on the machine's speed, and the parry back-end is refused.
+            stopping_rule: where the LOD back-end may stop at coarse pieces, as
+                :class:`LodBackend`'s ``stopping_rule`` (``"deviation"``, the paper's, or
+                ``"coherence"``).
 
         Raises:
-            InputError: a bad pose or array.
+            InputError: a bad pose or array, an unknown ``stopping_rule``.
             SceneError: a field out of range (``.field``: its scene-file path, as
                 ``"tool.mass_kg"``), a tool mesh without mass properties.
         """

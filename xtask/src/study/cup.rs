@@ -88,7 +88,8 @@ fn run_config(
 ) -> anyhow::Result<RunResult> {
     let parts = parts_for(base, c)?;
     let device = ScriptedDevice::from_waypoints(trajectory(&parts.tool_pose), parts.limits)?;
-    let backend = LodBackend::new(&parts.tool_mesh, &parts.obstacles)?;
+    let backend = LodBackend::new(&parts.tool_mesh, &parts.obstacles)?
+        .with_stopping_rule(parts.stopping_rule);
     let latency = ContactLatency::FixedRate {
         rate_hz: CONTACT_HZ,
     };

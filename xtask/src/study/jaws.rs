@@ -65,6 +65,8 @@ fn parts() -> anyhow::Result<SceneParts> {
         contact_hz: None,
         limits,
         waypoints: Vec::new(),
+        // The paper's study: the paper's rule.
+        stopping_rule: haptic_collision::StoppingRule::Deviation,
     })
 }
 

@@ -160,7 +160,8 @@ pub fn run(args: &CompareArgs) -> anyhow::Result<()> {
     for c in &configs {
         configure(&base, c).with_context(|| format!("configuration {c:?}"))?;
     }
-    let lod = crate::common::lod_backend(&base.tool_mesh, &base.obstacles)?;
+    let lod = crate::common::lod_backend(&base.tool_mesh, &base.obstacles)?
+        .with_stopping_rule(base.stopping_rule);
     let finest_hz = configs
         .iter()
         .map(|c| c.haptic_hz.unwrap_or(base.config.haptic_rate_hz))
