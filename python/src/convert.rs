@@ -229,3 +229,17 @@ pub type ArrayPair<'py> = (Bound<'py, PyArray1<f64>>, Bound<'py, PyArray1<f64>>)
 pub fn array1<'py, T: numpy::Element>(py: Python<'py>, v: Vec<T>) -> Bound<'py, PyArray1<T>> {
     v.into_pyarray(py)
 }
+
+/// A stopping rule by its Python name (`"deviation"` or `"coherence"`), for the argument
+/// `field`.
+pub fn stopping_rule(name: &str, field: &str) -> PyResult<haptic_runtime::scene::StoppingRuleSpec> {
+    use haptic_runtime::scene::StoppingRuleSpec;
+    match name {
+        "deviation" => Ok(StoppingRuleSpec::Deviation),
+        "coherence" => Ok(StoppingRuleSpec::Coherence),
+        other => Err(input(
+            field,
+            format!("`{other}`: use \"deviation\" or \"coherence\""),
+        )),
+    }
+}

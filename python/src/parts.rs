@@ -14,8 +14,7 @@ use haptic_core::{
 };
 use haptic_device::{HandDevice, ScriptedDevice, Waypoint};
 use haptic_runtime::scene::{
-    ContactSpec, CouplingSpec, DeviceSpec, ObstacleSpec, PoseSpec, RateSpec, StoppingRuleSpec,
-    ToolSpec, WaypointSpec,
+    ContactSpec, CouplingSpec, DeviceSpec, ObstacleSpec, PoseSpec, RateSpec, ToolSpec, WaypointSpec,
 };
 use haptic_runtime::{SceneParts, scene::Scene as SceneSpec};
 use pyo3::prelude::*;
@@ -94,16 +93,7 @@ impl PyScene {
         time_budget_s: Option<f64>,
         stopping_rule: &str,
     ) -> PyResult<Self> {
-        let stopping_rule = match stopping_rule {
-            "deviation" => StoppingRuleSpec::Deviation,
-            "coherence" => StoppingRuleSpec::Coherence,
-            other => {
-                return Err(input(
-                    "stopping_rule",
-                    format!("`{other}`: use \"deviation\" or \"coherence\""),
-                ));
-            }
-        };
+        let stopping_rule = convert::stopping_rule(stopping_rule, "stopping_rule")?;
         let tool_pose = match tool_pose {
             Some(p) => convert::pose(p, "tool_pose")?,
             None => Pose::identity(),

@@ -4,7 +4,7 @@
 use std::sync::Mutex;
 use std::time::Instant;
 
-use haptic_collision::{LodBackend, ParryBackend, StoppingRule, TriMesh};
+use haptic_collision::{LodBackend, ParryBackend, TriMesh};
 use haptic_core::{CollisionBackend, Contact, ContactSet, Pose, QueryParams, Vec3};
 use numpy::{PyArray1, PyArray2};
 use pyo3::prelude::*;
@@ -236,12 +236,13 @@ fn query<B: CollisionBackend + Send>(
 }
 
 /// The native sensation-preserving multiresolution back-end: `LodBackend(tool, obstacles,
-/// cache_dir=None, max_contacts=256, stopping_rule="deviation")`, the tool mesh in its body frame and `[(Mesh, pose), …]` the obstacles with
-/// their world poses. With `cache_dir`, each hierarchy is read back from that folder when it was
-/// saved there for the same mesh, and built and saved there otherwise (a file that cannot be
-/// used is rebuilt, never used). `stopping_rule="coherence"` is
-/// [`StoppingRule::DeviationAndCoherence`]. Building the hierarchies and querying release the GIL; one
-/// back-end may be used from several Python threads (their queries take turns).
+/// cache_dir=None, max_contacts=256, stopping_rule="deviation")`, the tool mesh in its body
+/// frame and `[(Mesh, pose), …]` the obstacles with their world poses. With `cache_dir`, each
+/// hierarchy is read back from that folder when it was saved there for the same mesh, and built
+/// and saved there otherwise (a file that cannot be used is rebuilt, never used).
+/// `stopping_rule="coherence"` is `haptic_collision::StoppingRule::DeviationAndCoherence`.
+/// Building the hierarchies and querying release the GIL; one back-end may be used from several
+/// Python threads (their queries take turns).
 #[pyclass(module = "haptic", name = "LodBackend", frozen)]
 pub struct PyLodBackend {
     inner: Mutex<(LodBackend, ContactSet)>,
@@ -263,16 +264,7 @@ impl PyLodBackend {
         stopping_rule: &str,
     ) -> PyResult<Self> {
         use haptic_collision::lod::CacheOutcome;
-        let rule = match stopping_rule {
-            "deviation" => StoppingRule::Deviation,
-            "coherence" => StoppingRule::DeviationAndCoherence,
-            other => {
-                return Err(input(
-                    "stopping_rule",
-                    format!("`{other}`: use \"deviation\" or \"coherence\""),
-                ));
-            }
-        };
+        let rule = convert::stopping_rule(stopping_rule, "stopping_rule")?.rule();
         let obstacles = self::obstacles(obstacles)?;
         let tool = tool.mesh.clone();
         let (backend, cache) = py

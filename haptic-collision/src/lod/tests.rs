@@ -538,20 +538,19 @@ fn normals_point_out_of_the_tool() {
     let _ = triangle_normal;
 }
 
-/// A flat square grid of `k × k` cells of side `2 half / k` in the plane z = 0, facing `+z`
+/// A sheet over the grid `xs × ys`, at height `z(x)`, each cell two triangles, facing `+z`
 /// (`up`) or `−z`.
-fn flat_grid(k: usize, half: Real, up: bool) -> TriMesh {
+fn sheet(xs: &[Real], ys: &[Real], z: impl Fn(Real) -> Real, up: bool) -> TriMesh {
     let mut vertices = Vec::new();
-    for j in 0..=k {
-        for i in 0..=k {
-            let s = |t: usize| -half + 2.0 * half * t as Real / k as Real;
-            vertices.push(Vec3::new(s(i), s(j), 0.0));
+    for &y in ys {
+        for &x in xs {
+            vertices.push(Vec3::new(x, y, z(x)));
         }
     }
-    let at = |i: usize, j: usize| (j * (k + 1) + i) as u32;
+    let at = |i: usize, j: usize| (j * xs.len() + i) as u32;
     let mut triangles = Vec::new();
-    for j in 0..k {
-        for i in 0..k {
+    for j in 0..ys.len() - 1 {
+        for i in 0..xs.len() - 1 {
             let (a, b, c, d) = (at(i, j), at(i + 1, j), at(i + 1, j + 1), at(i, j + 1));
             if up {
                 triangles.extend([[a, b, c], [a, c, d]]);
@@ -561,6 +560,19 @@ fn flat_grid(k: usize, half: Real, up: bool) -> TriMesh {
         }
     }
     mesh(vertices, triangles)
+}
+
+/// `k + 1` evenly spaced values from `-half` to `half`.
+fn even(k: usize, half: Real) -> Vec<Real> {
+    (0..=k)
+        .map(|t| -half + 2.0 * half * t as Real / k as Real)
+        .collect()
+}
+
+/// A flat square grid of `k × k` cells of side `2 half / k` in the plane z = 0, facing `+z`
+/// (`up`) or `−z`.
+fn flat_grid(k: usize, half: Real, up: bool) -> TriMesh {
+    sheet(&even(k, half), &even(k, half), |_| 0.0, up)
 }
 
 #[test]
@@ -738,32 +750,11 @@ proptest! {
 /// lines so that every flank is exact; facing `+z` (`up`) or `−z`.
 fn corrugated(period: Real, half_x: Real, half_y: Real, up: bool) -> TriMesh {
     let kx = (2.0 * half_x / (0.5 * period)).round() as usize;
-    let ky = 4;
     let tri = |x: Real| {
         let t = ((x / period).rem_euclid(1.0) - 0.5).abs();
         period * (0.25 - t)
     };
-    let mut vertices = Vec::new();
-    for j in 0..=ky {
-        for i in 0..=kx {
-            let x = -half_x + 0.5 * period * i as Real;
-            let y = -half_y + 2.0 * half_y * j as Real / ky as Real;
-            vertices.push(Vec3::new(x, y, tri(x)));
-        }
-    }
-    let at = |i: usize, j: usize| (j * (kx + 1) + i) as u32;
-    let mut triangles = Vec::new();
-    for j in 0..ky {
-        for i in 0..kx {
-            let (a, b, c, d) = (at(i, j), at(i + 1, j), at(i + 1, j + 1), at(i, j + 1));
-            if up {
-                triangles.extend([[a, b, c], [a, c, d]]);
-            } else {
-                triangles.extend([[a, c, b], [a, d, c]]);
-            }
-        }
-    }
-    mesh(vertices, triangles)
+    sheet(&even(kx, half_x), &even(4, half_y), tri, up)
 }
 
 /// Two mating corrugated sheets, the tool shifted sideways so that only the flanks facing one
