@@ -6,7 +6,7 @@
 //! fork's tine, a cusp) can lie within `ε` of a flat piece and still push, through that piece,
 //! along a normal its surface does not have: the threads of a bolt pushed radially by their
 //! coarse pieces come out 2.3 times too strong (`docs/experiments/lod-accuracy-and-speed-probes.md`,
-//! probe 14).
+//! probes 13 and 14).
 //!
 //! [`StoppingRule::DeviationAndCoherence`] adds the error a piece makes in the force it
 //! integrates. A node's normal coherence is `c = |Σ aᵢ nᵢ| / Σ aᵢ` over its triangles (1 for a
