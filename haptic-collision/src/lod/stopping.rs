@@ -5,14 +5,14 @@
 //! which way the surfaces face. A node whose triangles face many ways (a thread's two flanks, a
 //! fork's tine, a cusp) can lie within `ε` of a flat piece and still push, through that piece,
 //! along a normal its surface does not have: the threads of a bolt pushed radially by their
-//! coarse pieces come out 2.3 times too strong (`docs/experiments/lod-accuracy-and-speed-probes.md`,
-//! probes 13 and 14).
+//! coarse pieces come out 2.3 times too strong
+//! (`docs/experiments/lod-accuracy-and-speed-probes.md`, probes 13 and 14).
 //!
 //! [`StoppingRule::DeviationAndCoherence`] adds the error a piece makes in the force it
 //! integrates. A node's normal coherence is `c = |Σ aᵢ nᵢ| / Σ aᵢ` over its triangles (1 for a
-//! flat patch, 0 where its faces cancel): the penalty over the surface pushes with at most `c`
-//! times the vector area that the piece pushes with, so `1 − c` is the relative error in force of
-//! standing for the surface with one normal. A pair that writes a contact stops only where both
+//! flat patch, 0 where its faces cancel): the surface's normals add up to `c` times its area,
+//! which a piece pushing along one normal counts whole, so `1 − c` is about the relative error
+//! in force of standing for the surface with one normal. A pair that writes a contact stops only where both
 //! pieces have `1 − c ≤ error_threshold`; otherwise it is descended like any other pair. Pairs
 //! without a contact stop as before, so the distance guarantee is unchanged, and at threshold 0
 //! both rules descend to triangles and give the same contacts.
