@@ -455,7 +455,7 @@ where
     let n = scene.poses.len().max(1) as Real;
     let errors_against = |ws: &[[Real; 6]]| match reference {
         Some(r) => pose_errors(ws.iter().map(Some), r.wrenches.iter().map(Some), radius),
-        None => vec![0.0; ws.len()],
+        None => Ok(vec![0.0; ws.len()]),
     };
     let force = |w: &[Real; 6]| Vec3::new(w[0], w[1], w[2]).norm();
     let force_ratios = match reference {
@@ -472,7 +472,7 @@ where
             integrated.iter().map(Option::as_ref),
             r.integrated.iter().map(Option::as_ref),
             radius,
-        ),
+        )?,
         None => vec![0.0; integrated.len()],
     };
     Ok(RunResult {
@@ -484,8 +484,8 @@ where
         contacts_max,
         raw_contacts_max,
         node_pairs_mean: node_pairs as Real / n,
-        errors: errors_against(&wrenches),
-        errors_chained: errors_against(&chained_wrenches),
+        errors: errors_against(&wrenches)?,
+        errors_chained: errors_against(&chained_wrenches)?,
         cold_errors,
         wrenches,
         representatives,

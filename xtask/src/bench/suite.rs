@@ -440,29 +440,37 @@ pub(super) fn run(
         measured.push(m);
     }
     // Tessellation error of each generated shape: fine against coarse, pose by pose.
-    let tessellation = |name: &str| -> Option<(Real, Real)> {
-        let name = name_static(name)?;
+    // `None` where the scene has no partner tessellation in this run (`--only`).
+    let tessellation = |name: &str| -> anyhow::Result<Option<(Real, Real)>> {
+        let Some(name) = name_static(name) else {
+            return Ok(None);
+        };
         let find = |d: usize| {
             entries
                 .iter()
                 .zip(&measured)
                 .find(|(e, _)| e.family == Some((name, d)))
         };
-        let ((_, coarse), (_, fine)) = (find(1)?, find(2)?);
+        let (Some((_, coarse)), Some((_, fine))) = (find(1), find(2)) else {
+            return Ok(None);
+        };
         let errors = super::wrench::pose_errors(
             fine.reference.wrenches.iter().map(Some),
             coarse.reference.wrenches.iter().map(Some),
             coarse.radius_m,
-        );
-        Some((
+        )?;
+        Ok(Some((
             collision::quantile(&errors, 0.5),
             collision::quantile(&errors, 0.9),
-        ))
+        )))
     };
     let mut scenes = Vec::new();
     let mut rows = Vec::new();
     for (e, m) in entries.iter().zip(&measured) {
-        let t = e.family.and_then(|(name, _)| tessellation(name));
+        let t = match e.family {
+            Some((name, _)) => tessellation(name)?,
+            None => None,
+        };
         scenes.push(SuiteScene {
             name: e.scene.name.clone(),
             description: e.scene.description.clone(),

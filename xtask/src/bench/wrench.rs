@@ -48,15 +48,34 @@ pub(super) fn relative_error(w: &[Real; 6], w0: &[Real; 6], lever: Real) -> Opti
 
 /// The error of each pose's wrench in `ws` against the same pose's in `w0s` (torques divided by
 /// `lever`), skipping the poses where either has none or both are zero.
+///
+/// # Errors
+/// When the two runs do not have the same number of poses, or when poses were given and none
+/// could be compared (no contact at any pose, or contacts without areas): an error figure over
+/// nothing would be a NaN in the report, not a measurement.
 pub(super) fn pose_errors<'a>(
     ws: impl IntoIterator<Item = Option<&'a [Real; 6]>>,
     w0s: impl IntoIterator<Item = Option<&'a [Real; 6]>>,
     lever: Real,
-) -> Vec<Real> {
-    ws.into_iter()
-        .zip(w0s)
-        .filter_map(|(w, w0)| relative_error(w?, w0?, lever))
-        .collect()
+) -> anyhow::Result<Vec<Real>> {
+    let (mut ws, mut w0s) = (ws.into_iter(), w0s.into_iter());
+    let (mut errors, mut poses) = (Vec::new(), 0usize);
+    loop {
+        match (ws.next(), w0s.next()) {
+            (Some(w), Some(w0)) => {
+                poses += 1;
+                errors.extend(w.zip(w0).and_then(|(w, w0)| relative_error(w, w0, lever)));
+            }
+            (None, None) => break,
+            _ => anyhow::bail!("a run and its reference have different numbers of poses"),
+        }
+    }
+    if errors.is_empty() && poses > 0 {
+        anyhow::bail!(
+            "none of the {poses} poses has a wrench to compare with its reference (no contact at any pose, or contacts without areas)"
+        );
+    }
+    Ok(errors)
 }
 
 #[cfg(test)]
@@ -136,6 +155,19 @@ mod tests {
         let zero = [0.0; 6];
         let ws = [Some(&a), None, Some(&zero), Some(&b)];
         let w0s = [Some(&b), Some(&b), Some(&zero), None];
-        assert_eq!(pose_errors(ws, w0s, 1.0), vec![0.5]);
+        assert_eq!(pose_errors(ws, w0s, 1.0).unwrap(), vec![0.5]);
+    }
+
+    #[test]
+    fn pose_errors_refuse_to_compare_nothing() {
+        let (a, zero) = ([1.0, 0.0, 0.0, 0.0, 0.0, 0.0], [0.0; 6]);
+        // Every pose skipped: no contact anywhere, or no areas.
+        let err = pose_errors([Some(&zero), None], [Some(&zero), Some(&a)], 1.0).unwrap_err();
+        assert!(err.to_string().contains("none of the 2 poses"), "{err}");
+        // Runs of different lengths.
+        let err = pose_errors([Some(&a)], [Some(&a), Some(&a)], 1.0).unwrap_err();
+        assert!(err.to_string().contains("numbers of poses"), "{err}");
+        // No poses at all is no error: nothing was asked.
+        assert!(pose_errors([], [], 1.0).unwrap().is_empty());
     }
 }
