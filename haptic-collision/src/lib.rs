@@ -36,7 +36,7 @@ pub mod parry;
 pub mod reference;
 mod slab;
 
-pub use lod::{DEFAULT_MAX_CONTACTS, LodBackend, StoppingRule};
+pub use lod::{DEFAULT_MAX_CONTACTS, LodBackend, StoppingRule, UnknownStoppingRule};
 pub use mesh::{
     DegeneratePolicy, LoadOptions, LoadReport, MassProperties, MeshError, MeshFormat, TriMesh,
 };

@@ -230,16 +230,7 @@ pub fn array1<'py, T: numpy::Element>(py: Python<'py>, v: Vec<T>) -> Bound<'py, 
     v.into_pyarray(py)
 }
 
-/// A stopping rule by its Python name (`"deviation"` or `"coherence"`), for the argument
-/// `field`.
-pub fn stopping_rule(name: &str, field: &str) -> PyResult<haptic_runtime::scene::StoppingRuleSpec> {
-    use haptic_runtime::scene::StoppingRuleSpec;
-    match name {
-        "deviation" => Ok(StoppingRuleSpec::Deviation),
-        "coherence" => Ok(StoppingRuleSpec::Coherence),
-        other => Err(input(
-            field,
-            format!("`{other}`: use \"deviation\" or \"coherence\""),
-        )),
-    }
+/// A stopping rule by its name (`"deviation"` or `"coherence"`), for the argument `field`.
+pub fn stopping_rule(name: &str, field: &str) -> PyResult<haptic_collision::StoppingRule> {
+    name.parse().map_err(|e| input(field, e))
 }

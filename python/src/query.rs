@@ -264,7 +264,7 @@ impl PyLodBackend {
         stopping_rule: &str,
     ) -> PyResult<Self> {
         use haptic_collision::lod::CacheOutcome;
-        let rule = convert::stopping_rule(stopping_rule, "stopping_rule")?.rule();
+        let rule = convert::stopping_rule(stopping_rule, "stopping_rule")?;
         let obstacles = self::obstacles(obstacles)?;
         let tool = tool.mesh.clone();
         let (backend, cache) = py

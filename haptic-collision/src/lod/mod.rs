@@ -66,7 +66,7 @@ pub use build::Hierarchy;
 pub use cache::{CacheOutcome, FORMAT_VERSION, HierarchyFileError, hierarchy_key};
 pub(crate) use moments::SurfaceMoments;
 use query::{Frames, Nearest, Scratch, Walk, closest_approaches, collide};
-pub use stopping::StoppingRule;
+pub use stopping::{StoppingRule, UnknownStoppingRule};
 
 use crate::compact::Compactor;
 use crate::mesh::TriMesh;

@@ -17,6 +17,9 @@
 //! without a contact stop as before, so the distance guarantee is unchanged, and at threshold 0
 //! both rules descend to triangles and give the same contacts.
 
+use std::fmt;
+use std::str::FromStr;
+
 use haptic_core::Real;
 
 /// When the multiresolution walk stops at a pair of coarse pieces (see the module docs).
@@ -35,6 +38,18 @@ pub enum StoppingRule {
 }
 
 impl StoppingRule {
+    /// Every rule.
+    pub const ALL: [Self; 2] = [Self::Deviation, Self::DeviationAndCoherence];
+
+    /// The rule's name in scene files (`contact.stopping_rule`), on the command line and in
+    /// Python: `"deviation"` or `"coherence"`. [`FromStr`] reads it back.
+    pub fn name(self) -> &'static str {
+        match self {
+            Self::Deviation => "deviation",
+            Self::DeviationAndCoherence => "coherence",
+        }
+    }
+
     /// The least normal coherence a contact's pieces may have at `error_threshold` (below 0:
     /// any).
     pub(crate) fn min_coherence(self, error_threshold: Real) -> Real {
@@ -42,6 +57,28 @@ impl StoppingRule {
             Self::Deviation => -1.0,
             Self::DeviationAndCoherence => 1.0 - error_threshold,
         }
+    }
+}
+
+impl fmt::Display for StoppingRule {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.write_str(self.name())
+    }
+}
+
+/// A name that is not a [`StoppingRule`]'s ([`StoppingRule::name`]).
+#[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
+#[error("`{0}` is not a stopping rule: use \"deviation\" or \"coherence\"")]
+pub struct UnknownStoppingRule(pub String);
+
+impl FromStr for StoppingRule {
+    type Err = UnknownStoppingRule;
+
+    fn from_str(name: &str) -> Result<Self, Self::Err> {
+        Self::ALL
+            .into_iter()
+            .find(|r| r.name() == name)
+            .ok_or_else(|| UnknownStoppingRule(name.to_owned()))
     }
 }
 
@@ -57,5 +94,15 @@ mod tests {
         assert!((c - 0.975).abs() < 1e-15);
         // At threshold 0 every coarse pair fails; triangle pairs are exempt (coherence 1).
         assert_eq!(StoppingRule::DeviationAndCoherence.min_coherence(0.0), 1.0);
+    }
+
+    #[test]
+    fn names_read_back_and_a_typo_is_named() {
+        for rule in StoppingRule::ALL {
+            assert_eq!(rule.name().parse::<StoppingRule>(), Ok(rule));
+            assert_eq!(rule.to_string(), rule.name());
+        }
+        let err = "normals".parse::<StoppingRule>().unwrap_err();
+        assert!(err.to_string().contains("`normals`"), "{err}");
     }
 }

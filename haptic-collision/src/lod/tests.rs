@@ -178,6 +178,14 @@ fn scene(seed: u64) -> (TriMesh, Vec<(TriMesh, Pose)>) {
     (tool, obstacles)
 }
 
+/// Either stopping rule.
+fn any_rule() -> impl Strategy<Value = StoppingRule> {
+    prop_oneof![
+        Just(StoppingRule::Deviation),
+        Just(StoppingRule::DeviationAndCoherence)
+    ]
+}
+
 fn min_distance_and_max_depth(set: &ContactSet) -> (Real, Real) {
     let max_depth = set.max_depth_m().unwrap_or(Real::NEG_INFINITY);
     let min_dist = set
@@ -196,7 +204,7 @@ proptest! {
     fn threshold_zero_matches_brute_force(
         seed in 0u64..1_000_000,
         pose_seed in 0u64..1_000_000,
-        rule in prop_oneof![Just(StoppingRule::Deviation), Just(StoppingRule::DeviationAndCoherence)],
+        rule in any_rule(),
     ) {
         let (tool, obstacles) = scene(seed);
         let mut lod = LodBackend::new(&tool, &obstacles)
@@ -291,7 +299,7 @@ proptest! {
         seed in 0u64..1_000_000,
         gap in 0.002f64..0.012,
         threshold in 0.005f64..0.05,
-        rule in prop_oneof![Just(StoppingRule::Deviation), Just(StoppingRule::DeviationAndCoherence)],
+        rule in any_rule(),
     ) {
         let tool = bumpy_sphere(2, 0.03, 0.03, seed);
         let obstacle = bumpy_sphere(2, 0.04, 0.03, seed + 11);

@@ -192,7 +192,7 @@ impl Scene {
             contact_hz: self.rates.contact_hz,
             limits,
             waypoints,
-            stopping_rule: self.contact.stopping_rule.rule(),
+            stopping_rule: self.contact.stopping_rule,
         })
     }
 }

@@ -44,5 +44,5 @@ mod tests;
 pub use assembly::SceneParts;
 pub use spec::{
     ContactSpec, CouplingSpec, DeviceSpec, ObstacleSpec, PoseSpec, RateSpec, Scene, SceneError,
-    StoppingRuleSpec, ToolSpec, WaypointSpec,
+    ToolSpec, WaypointSpec,
 };

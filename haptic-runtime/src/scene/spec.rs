@@ -168,28 +168,16 @@ pub struct ContactSpec {
     /// Where the multiresolution back-end may stop at coarse pieces: `"deviation"` (the
     /// paper's, the default) or `"coherence"` (also the pieces' normal coherence where they
     /// touch; `haptic_collision::StoppingRule`).
-    pub stopping_rule: StoppingRuleSpec,
+    #[serde(deserialize_with = "stopping_rule")]
+    pub stopping_rule: haptic_collision::StoppingRule,
 }
 
-/// The LOD back-end's stopping rule as a scene names it (`haptic_collision::StoppingRule`).
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Deserialize)]
-#[serde(rename_all = "lowercase")]
-pub enum StoppingRuleSpec {
-    /// `haptic_collision::StoppingRule::Deviation`: the paper's rule.
-    #[default]
-    Deviation,
-    /// `haptic_collision::StoppingRule::DeviationAndCoherence`.
-    Coherence,
-}
-
-impl StoppingRuleSpec {
-    /// The back-end's rule.
-    pub fn rule(self) -> haptic_collision::StoppingRule {
-        match self {
-            Self::Deviation => haptic_collision::StoppingRule::Deviation,
-            Self::Coherence => haptic_collision::StoppingRule::DeviationAndCoherence,
-        }
-    }
+/// Reads a stopping rule by its name ([`haptic_collision::StoppingRule::name`]).
+fn stopping_rule<'de, D: serde::Deserializer<'de>>(
+    d: D,
+) -> Result<haptic_collision::StoppingRule, D::Error> {
+    let name = String::deserialize(d)?;
+    name.parse().map_err(serde::de::Error::custom)
 }
 
 impl Default for ContactSpec {
@@ -203,7 +191,7 @@ impl Default for ContactSpec {
             linearized: true,
             fixed_frames: true,
             time_budget_s: None,
-            stopping_rule: StoppingRuleSpec::Deviation,
+            stopping_rule: haptic_collision::StoppingRule::Deviation,
         }
     }
 }

@@ -41,7 +41,7 @@ fn the_stopping_rule_is_the_papers_unless_asked() {
     use haptic_collision::StoppingRule::{Deviation, DeviationAndCoherence};
     let with = |contact: &str| {
         let text = format!("{MINIMAL}\n[contact]\n{contact}\n");
-        Scene::from_toml_str(&text, Path::new(".")).map(|s| s.contact.stopping_rule.rule())
+        Scene::from_toml_str(&text, Path::new(".")).map(|s| s.contact.stopping_rule)
     };
     assert_eq!(with("").unwrap(), Deviation);
     assert_eq!(with("stopping_rule = \"deviation\"").unwrap(), Deviation);

@@ -99,7 +99,7 @@ pub(super) struct SceneMeasure {
 pub(super) fn measure(
     scene: &Scene,
     passes: usize,
-    rule: super::RuleArg,
+    rule: haptic_collision::StoppingRule,
 ) -> anyhow::Result<SceneMeasure> {
     println!(
         "collision bench: scene {}, {} + {} triangles, {} poses × {passes}, δ = {} mm",
@@ -112,7 +112,7 @@ pub(super) fn measure(
     let obstacles = [(scene.obstacle.clone(), Pose::identity())];
 
     let t = Instant::now();
-    let mut lod = LodBackend::new(&scene.tool, &obstacles)?.with_stopping_rule(rule.rule());
+    let mut lod = LodBackend::new(&scene.tool, &obstacles)?.with_stopping_rule(rule);
     let lod_build_s = t.elapsed().as_secs_f64();
     let bs = lod.build_stats().clone();
     let t = Instant::now();
@@ -468,6 +468,8 @@ where
         None => vec![1.0; wrenches.len()],
     };
     let errors_unclustered = match reference {
+        // A back-end whose contacts carry no area has no figure (`null` in the report).
+        Some(_) if integrated.iter().any(Option::is_none) => Vec::new(),
         Some(r) => pose_errors(
             integrated.iter().map(Option::as_ref),
             r.integrated.iter().map(Option::as_ref),

@@ -9,6 +9,8 @@ mod shapes;
 mod suite;
 mod wrench;
 
+use haptic_collision::StoppingRule;
+
 use crate::OutArgs;
 
 /// Arguments of `bench`: a benchmark (the performance report when none is named) and where to
@@ -52,35 +54,8 @@ pub struct CollisionArgs {
     pub only: Option<Vec<String>>,
     /// The LOD walk's stopping rule: `deviation` (the paper's, the default) or `coherence`
     /// (also the pieces' normal coherence where a pair writes a contact).
-    #[arg(long, value_enum, default_value_t = RuleArg::Deviation)]
-    pub stopping_rule: RuleArg,
-}
-
-/// `--stopping-rule`: [`haptic_collision::StoppingRule`] on the command line.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
-pub enum RuleArg {
-    /// [`haptic_collision::StoppingRule::Deviation`].
-    Deviation,
-    /// [`haptic_collision::StoppingRule::DeviationAndCoherence`].
-    Coherence,
-}
-
-impl RuleArg {
-    /// The library's rule.
-    pub fn rule(self) -> haptic_collision::StoppingRule {
-        match self {
-            Self::Deviation => haptic_collision::StoppingRule::Deviation,
-            Self::Coherence => haptic_collision::StoppingRule::DeviationAndCoherence,
-        }
-    }
-
-    /// Its name in the JSON reports (the command line's).
-    pub fn name(self) -> &'static str {
-        match self {
-            Self::Deviation => "deviation",
-            Self::Coherence => "coherence",
-        }
-    }
+    #[arg(long, default_value = "deviation")]
+    pub stopping_rule: StoppingRule,
 }
 
 /// Runs a benchmark.
@@ -110,13 +85,11 @@ mod tests {
             Cmd::try_parse_from(std::iter::once("collision").chain(args.iter().copied()))
                 .map(|c| c.collision.stopping_rule)
         };
-        assert_eq!(rule(&[]).unwrap(), RuleArg::Deviation);
-        let coherence = rule(&["--stopping-rule", "coherence"]).unwrap();
+        assert_eq!(rule(&[]).unwrap(), StoppingRule::Deviation);
         assert_eq!(
-            coherence.rule(),
-            haptic_collision::StoppingRule::DeviationAndCoherence
+            rule(&["--stopping-rule", "coherence"]).unwrap(),
+            StoppingRule::DeviationAndCoherence
         );
-        assert_eq!(coherence.name(), "coherence");
         assert!(rule(&["--stopping-rule", "normals"]).is_err());
     }
 }

@@ -391,7 +391,7 @@ pub fn run(out: &crate::OutArgs) -> anyhow::Result<()> {
         "generalization suite ({}):",
         if quick { "quick" } else { "full" }
     );
-    let suite_worst = super::suite::run(out_args, None, super::RuleArg::Deviation)?;
+    let suite_worst = super::suite::run(out_args, None, haptic_collision::StoppingRule::Deviation)?;
 
     let report = PerfReport {
         haptic_step: haptic,

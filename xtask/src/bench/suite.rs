@@ -90,7 +90,7 @@ fn file_scene(name: &str, n: usize) -> anyhow::Result<Entry> {
         scale: None,
         suite: false,
         only: None,
-        stopping_rule: super::RuleArg::Deviation,
+        stopping_rule: haptic_collision::StoppingRule::Deviation,
     };
     Ok(Entry {
         scene: collision::load_scene(&args, n)?,
@@ -401,12 +401,12 @@ fn select(entries: &mut Vec<Entry>, only: &[String]) -> anyhow::Result<()> {
     Ok(())
 }
 
-/// Runs the suite (or the scenes named in `only`), writes `suite.json` and the charts, and returns its worst figures (which
-/// `cargo xtask bench` also writes into `perf.json`).
+/// Runs the suite (or the scenes named in `only`), writes `suite.json` and the charts, and
+/// returns its worst figures (which `cargo xtask bench` also writes into `perf.json`).
 pub(super) fn run(
     out: &crate::OutArgs,
     only: Option<&[String]>,
-    rule: super::RuleArg,
+    rule: haptic_collision::StoppingRule,
 ) -> anyhow::Result<SuiteWorst> {
     let started = Instant::now();
     let dir = out.dir("collision")?;
