@@ -43,6 +43,7 @@ pub(super) fn work_precision_chart(
     path: &Path,
     scene_name: &str,
     rows: &[Row],
+    rule: haptic_collision::StoppingRule,
 ) -> anyhow::Result<()> {
     let lod_rows: Vec<&Row> = rows
         .iter()
@@ -76,8 +77,11 @@ pub(super) fn work_precision_chart(
             y_scale: Scale::Log,
         },
         &[
-            Series::new("LOD (threshold beside each point)", lod_points)
-                .with_point_labels(lod_labels),
+            Series::new(
+                format!("LOD, {rule} stopping rule (threshold beside each point)"),
+                lod_points,
+            )
+            .with_point_labels(lod_labels),
             Series::new(
                 format!("parry (median time; its own error {parry_err:.2})"),
                 parry_points,

@@ -260,6 +260,7 @@ pub fn run(args: &super::CollisionArgs, out: &crate::OutArgs) -> anyhow::Result<
         &dir.join("collision_work_precision.svg"),
         &scene.name,
         &m.rows,
+        args.stopping_rule,
     )
 }
 

@@ -436,6 +436,7 @@ pub(super) fn run(
             &dir.join(format!("suite_{}.svg", e.scene.name)),
             &e.scene.name,
             &m.rows,
+            rule,
         )?;
         measured.push(m);
     }
