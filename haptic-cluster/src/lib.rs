@@ -22,8 +22,22 @@
 //!   representative (greedy closest pairs); more seeds go to the contacts furthest from the seeds
 //!   chosen so far. A cold start seeds the deepest contact first, then furthest points.
 //! - The representative of a cluster (eqs. 30–32, our choice where the paper is silent):
-//!   `p_a = c_k`, `r_a` the weighted mean of the `r_a`, `n = normalize(Σ w_i n_i)`,
-//!   `d = Σ w_i d_i / Σ w_i`, `p_b = p_a − d n`.
+//!   `p_a = c_k`, `r_a` the weighted mean of the `r_a`, `d = Σ w_i d_i / Σ w_i`,
+//!   `n = normalize(Σ w_i g_i n_i)` (`g_i = d_i + δ`: the direction of the penalty its contacts
+//!   make), `p_b = p_a − d n`.
+//! - **Stiffness shares** (not in the paper, which gives every representative the same `k_c`):
+//!   representative `k` pushes with the share
+//!   `s_k = K' |Σ_{i∈k} w_i g_i n_i| / (W g_k)` of the contact stiffness and damping
+//!   (`Contact::stiffness_share`), with `K'` the representatives written, `W = Σ_i w_i` over all
+//!   contacts and `g_k = d_k + δ`. A penalty model then pushes each with
+//!   `k_c s_k g_k n_k = K' k_c Σ_{i∈k} w_i g_i n_i / W`, and their sum,
+//!   `K' k_c Σ_i w_i g_i n_i / W`, is the contacts' area-weighted penalty whatever the
+//!   partition: where Lloyd's method draws its boundaries moves the torque a little (each
+//!   cluster's force acts at its centroid) but not the force. With one cluster, or contacts of
+//!   one depth and normal, the shares are 1 (the paper's model); the shares add up to at most
+//!   `K'`, so the total translational stiffness stays within `K · k_c`. A cluster whose normals
+//!   cancel pushes as little as they do. A contact's own share (1 from a back-end) scales the
+//!   penalty it adds.
 //! - After warm-up (the largest contact count seen so far), a call allocates nothing.
 //!
 //! It owns only the clustering: contacts come from a `haptic_core::CollisionBackend`, and the
@@ -655,6 +669,7 @@ impl Clusterer {
         let k = self.centroids.len();
         self.acc.clear();
         self.acc.resize(k, Accumulator::default());
+        let mut total_w = 0.0;
         for (i, ((c, &a), &w)) in contacts
             .iter()
             .zip(&self.assign)
@@ -666,13 +681,15 @@ impl Clusterer {
             acc.w += w;
             acc.p_a += c.p_a * w;
             acc.r_a += c.r_a * w;
-            acc.n += c.n * w;
+            acc.penalty += c.n * (w * weight(c.depth_m, delta_m) * c.stiffness_share);
             acc.d += c.depth_m * w;
             acc.area_m2 += c.area_m2;
             if acc.deepest == usize::MAX || c.depth_m > contacts[acc.deepest].depth_m {
                 acc.deepest = i;
             }
+            total_w += w;
         }
+        let written = self.acc.iter().filter(|a| a.deepest != usize::MAX).count() as Real;
         for acc in &self.acc {
             if acc.deepest == usize::MAX {
                 continue;
@@ -680,8 +697,14 @@ impl Clusterer {
             let deepest = &contacts[acc.deepest];
             let p_a = acc.p_a / acc.w;
             let d = (acc.d / acc.w).max(-delta_m);
-            // Opposed normals can cancel: fall back to the deepest contact's normal.
-            let n = acc.n.try_normalize(1e-9 * acc.w).unwrap_or(deepest.n);
+            // Opposed normals can cancel: fall back to the deepest contact's normal (the share
+            // is then about 0: the cluster pushes as little as its contacts do).
+            let n = acc
+                .penalty
+                .try_normalize(1e-9 * acc.w * delta_m)
+                .unwrap_or(deepest.n);
+            // s_k = K' |Σ w g n| / (W g_k): the cluster's part of the area-weighted penalty.
+            let share = written * acc.penalty.norm() / (total_w * weight(d, delta_m));
             self.representative_weights.push(acc.w);
             out.push(Contact {
                 p_a,
@@ -692,6 +715,7 @@ impl Clusterer {
                 feature_a: deepest.feature_a,
                 feature_b: deepest.feature_b,
                 area_m2: acc.area_m2,
+                stiffness_share: share,
             });
         }
         self.acc.iter().map(|a| a.cost).sum()
@@ -726,7 +750,8 @@ struct Accumulator {
     w: Real,
     p_a: Vec3,
     r_a: Vec3,
-    n: Vec3,
+    /// `Σ w_i g_i s_i n_i`: the direction and size of the cluster's penalty.
+    penalty: Vec3,
     d: Real,
     area_m2: Real,
     deepest: usize,
@@ -739,7 +764,7 @@ impl Default for Accumulator {
             w: 0.0,
             p_a: Vec3::zeros(),
             r_a: Vec3::zeros(),
-            n: Vec3::zeros(),
+            penalty: Vec3::zeros(),
             d: 0.0,
             area_m2: 0.0,
             deepest: usize::MAX,

@@ -426,3 +426,112 @@ fn area_weights_make_the_representative_independent_of_the_tessellation() {
     let (m, _) = rep(&mixed);
     assert!((m.p_a - unweighted.p_a).norm() < 1e-12);
 }
+
+/// The penalty the representatives make at their own state (eq. 33 with each one's stiffness
+/// share, unit `k_c`): `Σ_k s_k g_k n_k`, pushing along `n` (the sign aside).
+fn representatives_penalty(reps: &ContactSet) -> Vec3 {
+    reps.iter()
+        .map(|r| r.n * (r.stiffness_share * weight(r.depth_m, DELTA_M)))
+        .sum()
+}
+
+/// `K' Σ_i w_i g_i n_i / W` over the raw contacts: the area-weighted penalty the shares keep.
+fn contacts_penalty(contacts: &[Contact], written: usize) -> Vec3 {
+    let w = |c: &Contact| weight(c.depth_m, DELTA_M) * c.area_m2.max(0.0);
+    let with_areas = contacts.iter().all(|c| c.area_m2 > 0.0);
+    let w = |c: &Contact| {
+        if with_areas {
+            w(c)
+        } else {
+            weight(c.depth_m, DELTA_M)
+        }
+    };
+    let total: Real = contacts.iter().map(w).sum();
+    let sum: Vec3 = contacts
+        .iter()
+        .map(|c| c.n * (w(c) * weight(c.depth_m, DELTA_M)))
+        .sum();
+    sum * (written as Real / total)
+}
+
+proptest! {
+    #![proptest_config(ProptestConfig::with_cases(256))]
+
+    /// The stiffness shares make the clustered penalty the contacts' own, whatever the
+    /// partition: cold, warm-started from elsewhere, and at any K. The shares add up to at most
+    /// K', so the stiffness stays within K k_c.
+    #[test]
+    fn shares_keep_the_penalty_whatever_the_partition(
+        contacts in arb_contacts(),
+        areas in prop::collection::vec(1e-7..1e-5f64, 120),
+        k in 1usize..9,
+        seeds in prop::collection::vec(prop::array::uniform3(-0.06..0.06f64), 1..9),
+    ) {
+        let contacts: Vec<Contact> = contacts.iter().zip(&areas).map(|(c, &a)| c.with_area(a)).collect();
+        let mut reps = ContactSet::new();
+        let mut cold = Clusterer::new(ClusterParams { max_clusters: k, ..Default::default() }).unwrap();
+        cold.cluster(&contacts, DELTA_M, &mut reps).unwrap();
+        let expected = contacts_penalty(&contacts, reps.len());
+        let scale = contacts_penalty(&contacts, 1).norm().max(1e-12) + expected.norm();
+        let got = representatives_penalty(&reps);
+        prop_assert!((got - expected).norm() <= 1e-9 * scale, "cold: {got:?} against {expected:?}");
+        let shares: Real = reps.iter().map(|r| r.stiffness_share).sum();
+        prop_assert!(shares <= reps.len() as Real * (1.0 + 1e-9), "shares add up to {shares}");
+        prop_assert!(reps.iter().all(|r| r.validate().is_ok()));
+        // The same contacts, seeded elsewhere: another partition, the same penalty.
+        let seeds: Vec<Contact> = seeds
+            .iter()
+            .map(|p| contact(Vec3::from(*p), Vec3::z(), 0.0))
+            .collect();
+        let mut warm = Clusterer::new(ClusterParams { max_clusters: k, ..Default::default() }).unwrap();
+        warm.warm_start_from(&seeds);
+        let mut other = ContactSet::new();
+        warm.cluster(&contacts, DELTA_M, &mut other).unwrap();
+        prop_assume!(other.len() == reps.len());
+        let got = representatives_penalty(&other);
+        prop_assert!((got - expected).norm() <= 1e-9 * scale, "warm: {got:?} against {expected:?}");
+    }
+}
+
+#[test]
+fn one_cluster_of_one_face_has_the_papers_stiffness() {
+    // Contacts of one depth and one normal: the shares are the clusters' parts of the weight and
+    // add up to K' (with equal parts, each is 1: the paper's model); a lone cluster of opposed
+    // contacts pushes as little as they do.
+    let flat: Vec<Contact> = (0..40)
+        .map(|i| {
+            let p = Vec3::new(1e-3 * (i % 8) as Real, 1e-3 * (i / 8) as Real, 0.0);
+            contact(p, -Vec3::z(), 3e-4).with_area(1e-6)
+        })
+        .collect();
+    for k in [1, 3, 5] {
+        let mut c = Clusterer::new(ClusterParams {
+            max_clusters: k,
+            ..Default::default()
+        })
+        .unwrap();
+        let mut reps = ContactSet::new();
+        c.cluster(&flat, DELTA_M, &mut reps).unwrap();
+        // Each share is K' times the part of the weight its cluster stands for.
+        let total: Real = c.representative_weights().iter().sum();
+        for (r, w) in reps.iter().zip(c.representative_weights()) {
+            let expected = reps.len() as Real * w / total;
+            assert!((r.stiffness_share - expected).abs() < 1e-9, "k = {k}");
+        }
+        let sum: Real = reps.iter().map(|r| r.stiffness_share).sum();
+        assert!((sum - reps.len() as Real).abs() < 1e-9, "k = {k}: {sum}");
+    }
+    let opposed = [
+        contact(Vec3::zeros(), Vec3::z(), 2e-4).with_area(1e-6),
+        contact(Vec3::new(1e-4, 0.0, 0.0), -Vec3::z(), 2e-4).with_area(1e-6),
+    ];
+    let mut c = Clusterer::new(ClusterParams {
+        max_clusters: 1,
+        ..Default::default()
+    })
+    .unwrap();
+    let mut reps = ContactSet::new();
+    c.cluster(&opposed, DELTA_M, &mut reps).unwrap();
+    assert_eq!(reps.len(), 1);
+    assert!(reps.as_slice()[0].stiffness_share < 1e-9);
+}

@@ -396,6 +396,7 @@ fn merged_contact(c: &Cell, delta_m: Real) -> Contact {
         feature_a: NO_FEATURE,
         feature_b: NO_FEATURE,
         area_m2,
+        stiffness_share: 1.0,
     }
 }
 

@@ -22,6 +22,11 @@ pub const NO_FEATURE: u32 = u32::MAX;
 /// - `area_m2`: the area of the tool's surface this contact stands for (m²), so that a flat
 ///   face weighs the same however finely it is tessellated; 0 when the back-end does not
 ///   measure it (see [`Contact::with_area`]). Clustering weighs contacts by it.
+/// - `stiffness_share`: the share of the contact model's stiffness and damping this contact
+///   pushes with (dimensionless, ≥ 0): 1 for a contact as a back-end reports it. A clustered
+///   representative carries its cluster's share of the `K'` representatives' stiffness, in
+///   proportion to the penalty its contacts make (`haptic_cluster`), so that the clustered
+///   penalty does not depend on where the clusters' boundaries fall.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Contact {
     /// Point on the tool, world frame, m.
@@ -40,6 +45,9 @@ pub struct Contact {
     pub feature_b: u32,
     /// Area of the tool's surface the contact stands for (m²), 0 when not measured.
     pub area_m2: Real,
+    /// Share of the contact model's stiffness and damping this contact pushes with (≥ 0); 1 for
+    /// a contact as a back-end reports it.
+    pub stiffness_share: Real,
 }
 
 impl Contact {
@@ -58,6 +66,7 @@ impl Contact {
             feature_a: NO_FEATURE,
             feature_b: NO_FEATURE,
             area_m2: 0.0,
+            stiffness_share: 1.0,
         };
         c.validate()?;
         Ok(c)
@@ -77,6 +86,14 @@ impl Contact {
         self
     }
 
+    /// The same contact pushing with `share` of the contact model's stiffness and damping (see
+    /// the type's docs). Not checked here; [`Contact::validate`] refuses a negative or
+    /// non-finite share.
+    pub fn with_stiffness_share(mut self, share: Real) -> Self {
+        self.stiffness_share = share;
+        self
+    }
+
     /// The gap `g = d + δ` that weighs this contact in clustering (eq. 28's weights, with its
     /// area), floored at `10⁻³ δ` so that a contact at exactly `−δ` keeps a small positive
     /// weight. See [`gap_weight_m`].
@@ -85,11 +102,11 @@ impl Contact {
         gap_weight_m(self.depth_m, delta_m)
     }
 
-    /// Checks finiteness, the unit normal and a non-negative area.
+    /// Checks finiteness, the unit normal, a non-negative area and a non-negative stiffness share.
     ///
     /// # Errors
-    /// As [`Contact::new`], and [`CoreError::NonFinite`] (`"contact area"`) for an area that is
-    /// negative, NaN or infinite.
+    /// As [`Contact::new`], and [`CoreError::NonFinite`] (`"contact area"`, `"contact stiffness
+    /// share"`) for an area or a share that is negative, NaN or infinite.
     pub fn validate(&self) -> Result<(), CoreError> {
         let finite = |v: &Vec3| v.iter().all(|c| c.is_finite());
         if !finite(&self.p_a) {
@@ -120,6 +137,11 @@ impl Contact {
         if !(self.area_m2.is_finite() && self.area_m2 >= 0.0) {
             return Err(CoreError::NonFinite {
                 what: "contact area",
+            });
+        }
+        if !(self.stiffness_share.is_finite() && self.stiffness_share >= 0.0) {
+            return Err(CoreError::NonFinite {
+                what: "contact stiffness share",
             });
         }
         let norm = self.n.norm();
@@ -285,6 +307,16 @@ mod tests {
             ));
         }
         assert!(ok().with_area(2e-6).validate().is_ok());
+        for share in [-1e-9, Real::NAN, Real::INFINITY] {
+            assert!(matches!(
+                ok().with_stiffness_share(share).validate(),
+                Err(CoreError::NonFinite {
+                    what: "contact stiffness share"
+                })
+            ));
+        }
+        assert_eq!(ok().stiffness_share, 1.0);
+        assert!(ok().with_stiffness_share(0.0).validate().is_ok());
         assert!(matches!(
             Contact::new(z, z, z, Vec3::new(0.0, 0.0, 2.0), 0.0),
             Err(CoreError::BadNormal { .. })

@@ -24,8 +24,11 @@
 //! ∂T/∂y   = [ρ]× ∂F/∂y − [F]× ∂ρ/∂y,     ∂ρ/∂q_k = R_k r_a
 //! ```
 //!
-//! The contacts' `n`, `p_b` and `r_a` are constants within one evaluation. With `K` clustered
-//! representatives the translational stiffness `‖∂F/∂x‖ ≤ K k_c` whatever the raw contact count.
+//! The contacts' `n`, `p_b` and `r_a` are constants within one evaluation. Each contact pushes
+//! with its `stiffness_share` `s` of `k_c` and `b_c` (`k_c s`, `b_c s` above): 1 for a contact
+//! as a back-end reports it, and for `K` clustered representatives shares that add up to at most
+//! `K` (`haptic_cluster`), so the translational stiffness `‖∂F/∂x‖ ≤ K k_c` whatever the raw
+//! contact count.
 
 use haptic_core::contact_frame::{add_point_wrench_jacobian, normal_force_gradient};
 use haptic_core::math::IX;
@@ -151,6 +154,12 @@ impl ContactModel for PenaltyModel {
         }
         for (index, c) in contacts.iter().enumerate() {
             c.validate().map_err(|e| contact_error(index, e))?;
+            // A representative pushes with its share of k_c and b_c (haptic-cluster); 1 for a
+            // contact as a back-end reports it.
+            let (k_c, b_c) = (k_c * c.stiffness_share, b_c * c.stiffness_share);
+            if k_c <= 0.0 {
+                continue; // a zero share: no force
+            }
             let n = c.n;
             let rho = kin.r * c.r_a; // ρ = R r_a
             let p_a = x + rho;
@@ -298,6 +307,37 @@ mod tests {
             prop_assert!(r.is_ok(), "force: {}", r.unwrap_err());
             let r = column_check(&jt, &y, m, |yy| eval(&body, yy, &contacts).torque);
             prop_assert!(r.is_ok(), "torque: {}", r.unwrap_err());
+        }
+
+        /// A contact's stiffness share scales its wrench and Jacobian (eq. 33 with `k_c s` and
+        /// `b_c s`) and its linearization's normal stiffness, so its cap is `λ₀ + s k_c δ`.
+        #[test]
+        fn stiffness_share_scales_the_contact(
+            body in arb_body(),
+            s in arb_raw_state(),
+            raw in arb_raw_contacts(),
+            share in 0.0..5.0f64,
+        ) {
+            let y = s.state_vector(&body);
+            let contacts = contacts_at(&body, &y, &raw);
+            let shared: Vec<Contact> = contacts.iter().map(|c| c.with_stiffness_share(share)).collect();
+            let kin = Kinematics::new(&body, &y);
+            let (mut j1, mut js) = (WrenchJacobian::zeros(), WrenchJacobian::zeros());
+            let w1 = model().evaluate(&body, &y, &kin, &contacts, Some(&mut j1)).unwrap();
+            let ws = model().evaluate(&body, &y, &kin, &shared, Some(&mut js)).unwrap();
+            let tol = 1e-12 * (1.0 + w1.force.norm() + w1.torque.norm()) * (1.0 + share);
+            prop_assert!((ws.force - w1.force * share).norm() <= tol);
+            prop_assert!((ws.torque - w1.torque * share).norm() <= tol);
+            prop_assert!((js - j1 * share).norm() <= 1e-12 * (1.0 + j1.norm()) * (1.0 + share));
+            let tool = ToolState::from_vector_normalized(&y).unwrap();
+            let y0 = tool.to_vector();
+            let one = contacts_at(&body, &y0, &raw[..1]);
+            let mut lin = LinearizedContact::none();
+            model().linearize(&body, &tool, &[one[0].with_stiffness_share(share)], &mut lin).unwrap();
+            for t in lin.tangents() {
+                let cap = t.lambda_max_n - t.lambda0_n;
+                prop_assert!((cap - share * K_C * DELTA).abs() <= 1e-9 * K_C * DELTA * (1.0 + share), "cap {cap}");
+            }
         }
 
         /// The linearized model (eq. 42), evaluated anywhere, never pulls and never gives a
