@@ -126,6 +126,18 @@ impl PyContacts {
         convert::array1(py, self.contacts.iter().map(|c| c.area_m2).collect())
     }
 
+    /// Share of the penalty stiffness and damping each contact pushes with: 1 for a contact
+    /// from a back-end (or built from arrays); a clustered representative's share is its part
+    /// of the `K'` representatives' stiffness, in proportion to the penalty its contacts make,
+    /// so that the representatives' penalty does not depend on the partition.
+    #[getter]
+    fn stiffness_share<'py>(&self, py: Python<'py>) -> Bound<'py, PyArray1<f64>> {
+        convert::array1(
+            py,
+            self.contacts.iter().map(|c| c.stiffness_share).collect(),
+        )
+    }
+
     /// Tool feature of each contact (0xFFFFFFFF: none).
     #[getter]
     fn feature_a<'py>(&self, py: Python<'py>) -> Bound<'py, PyArray1<u32>> {

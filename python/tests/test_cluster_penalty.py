@@ -121,6 +121,29 @@ def test_warm_start_keeps_the_order_and_reset_forgets_it():
     assert np.array_equal(reps_reset.p_a, reps_cold.p_a)
 
 
+def test_shares_keep_the_penalty_whatever_the_partition():
+    # Five clusters of the same contacts, cold and warm-started from another frame: different
+    # partitions, the same force, K' k_c Σ w g n / W (w = g = d + δ without areas); the shares
+    # add up to at most K' and are 1 for a contact built from arrays.
+    rng = np.random.default_rng(7)
+    points, depths = two_patches(rng, deepest_in_b=True)
+    contacts = floor_contacts(points, depths)
+    assert np.array_equal(contacts.stiffness_share, np.ones(len(contacts)))
+    cold = haptic.Clusterer(max_clusters=5).cluster(contacts, delta=DELTA)
+    warm = haptic.Clusterer(max_clusters=5)
+    warm.cluster(floor_contacts(points[::-1] + [0.02, 0.0, 0.0], depths[::-1]), delta=DELTA)
+    other = warm.cluster(contacts, delta=DELTA)
+    assert len(cold) == len(other) == 5
+    assert not np.allclose(np.sort(cold.p_a[:, 0]), np.sort(other.p_a[:, 0]), rtol=0, atol=1e-6)
+    model = haptic.PenaltyModel()
+    g = np.maximum(depths + DELTA, 1e-3 * DELTA)
+    expected = 5 * 2000.0 * (g * g).sum() / g.sum() * -DOWN
+    for reps in (cold, other):
+        assert reps.stiffness_share.sum() <= 5 * (1 + 1e-12)
+        f, _ = model.wrench(body(), IDENTITY, reps)
+        assert np.allclose(f, expected, rtol=1e-9, atol=0)
+
+
 def test_bad_cluster_parameters():
     with pytest.raises(haptic.ClusterError) as e:
         haptic.Clusterer(max_clusters=0)
