@@ -727,8 +727,17 @@ impl Clusterer {
 /// valid; `false` calls for [`validate_one`], which gives the precise error (or accepts).
 #[inline]
 fn screen(c: &Contact) -> bool {
-    let sum = c.p_a.sum() + c.r_a.sum() + c.p_b.sum() + c.n.sum() + c.depth_m + c.area_m2;
-    sum.is_finite() && c.area_m2 >= 0.0 && (c.n.norm_squared() - 1.0).abs() <= 1.9e-6
+    let sum = c.p_a.sum()
+        + c.r_a.sum()
+        + c.p_b.sum()
+        + c.n.sum()
+        + c.depth_m
+        + c.area_m2
+        + c.stiffness_share;
+    sum.is_finite()
+        && c.area_m2 >= 0.0
+        && c.stiffness_share >= 0.0
+        && (c.n.norm_squared() - 1.0).abs() <= 1.9e-6
 }
 
 /// [`Contact::validate`], with the error mapped to the clustering's and the contact's index.

@@ -235,6 +235,19 @@ fn bad_input_gives_typed_errors() {
             what: "contact depth"
         })
     ));
+    for share in [Real::NAN, -0.5] {
+        assert!(matches!(
+            c.cluster(
+                &[good, good.with_stiffness_share(share)],
+                DELTA_M,
+                &mut reps
+            ),
+            Err(ClusterError::NonFiniteContact {
+                index: 1,
+                what: "contact stiffness share"
+            })
+        ));
+    }
     for delta in [0.0, -1e-3, Real::NAN] {
         assert!(matches!(
             c.cluster(&[good], delta, &mut reps),
