@@ -10,6 +10,15 @@ fn contact(p: Vec3, n: Vec3, d: Real) -> Contact {
     Contact::new(p, p, p - d * n.normalize(), n.normalize(), d).unwrap()
 }
 
+/// A clusterer of at most `k` clusters, the other parameters the defaults.
+fn clusterer(k: usize) -> Clusterer {
+    Clusterer::new(ClusterParams {
+        max_clusters: k,
+        ..Default::default()
+    })
+    .unwrap()
+}
+
 /// Contacts around a few patch centres (m), depths in [−δ, 2 mm].
 fn arb_contacts() -> impl Strategy<Value = Vec<Contact>> {
     (
@@ -40,7 +49,7 @@ proptest! {
 
     #[test]
     fn lloyd_invariants(contacts in arb_contacts(), k in 1usize..9, warm_frames in 0usize..3) {
-        let mut clusterer = Clusterer::new(ClusterParams { max_clusters: k, ..Default::default() }).unwrap();
+        let mut clusterer = clusterer(k);
         clusterer.record_costs(true);
         let mut reps = ContactSet::new();
         // Optionally warm up on shifted copies of the same set first.
@@ -139,11 +148,7 @@ fn two_patches_are_found_and_representatives_average_them() {
             0.0,
         ));
     }
-    let mut c = Clusterer::new(ClusterParams {
-        max_clusters: 2,
-        ..Default::default()
-    })
-    .unwrap();
+    let mut c = clusterer(2);
     let mut reps = ContactSet::new();
     c.cluster(&contacts, DELTA_M, &mut reps).unwrap();
     // Each representative's weight is its patch's: 10 contacts of 2δ, and 10 of δ.
@@ -482,7 +487,7 @@ proptest! {
     ) {
         let contacts: Vec<Contact> = contacts.iter().zip(&areas).map(|(c, &a)| c.with_area(a)).collect();
         let mut reps = ContactSet::new();
-        let mut cold = Clusterer::new(ClusterParams { max_clusters: k, ..Default::default() }).unwrap();
+        let mut cold = clusterer(k);
         cold.cluster(&contacts, DELTA_M, &mut reps).unwrap();
         let expected = contacts_penalty(&contacts, reps.len());
         let scale = contacts_penalty(&contacts, 1).norm().max(1e-12) + expected.norm();
@@ -496,7 +501,7 @@ proptest! {
             .iter()
             .map(|p| contact(Vec3::from(*p), Vec3::z(), 0.0))
             .collect();
-        let mut warm = Clusterer::new(ClusterParams { max_clusters: k, ..Default::default() }).unwrap();
+        let mut warm = clusterer(k);
         warm.warm_start_from(&seeds);
         let mut other = ContactSet::new();
         warm.cluster(&contacts, DELTA_M, &mut other).unwrap();
@@ -518,11 +523,7 @@ fn one_cluster_of_one_face_has_the_papers_stiffness() {
         })
         .collect();
     for k in [1, 3, 5] {
-        let mut c = Clusterer::new(ClusterParams {
-            max_clusters: k,
-            ..Default::default()
-        })
-        .unwrap();
+        let mut c = clusterer(k);
         let mut reps = ContactSet::new();
         c.cluster(&flat, DELTA_M, &mut reps).unwrap();
         // Each share is K' times the part of the weight its cluster stands for.
@@ -538,11 +539,7 @@ fn one_cluster_of_one_face_has_the_papers_stiffness() {
         contact(Vec3::zeros(), Vec3::z(), 2e-4).with_area(1e-6),
         contact(Vec3::new(1e-4, 0.0, 0.0), -Vec3::z(), 2e-4).with_area(1e-6),
     ];
-    let mut c = Clusterer::new(ClusterParams {
-        max_clusters: 1,
-        ..Default::default()
-    })
-    .unwrap();
+    let mut c = clusterer(1);
     let mut reps = ContactSet::new();
     c.cluster(&opposed, DELTA_M, &mut reps).unwrap();
     assert_eq!(reps.len(), 1);

@@ -86,6 +86,42 @@ fn min_lambda_ratio(body: &RigidBody, y: &StateVector, contacts: &[Contact]) -> 
         .fold(Real::INFINITY, Real::min)
 }
 
+/// Whether a contact's normal force `lambda` (gradient `dl`) is away from the bounds' kinks
+/// (`λ = 0`, the release band `ε` and the cap `λ_max`) by more than central differences of the
+/// state `scales` can reach: there the bounded model is smooth enough for them. (`λ = ε` too:
+/// the smoothstep is C¹ there, not C², so the differences lose an order.)
+fn away_from_kinks(
+    t: &ContactTangent,
+    lambda: Real,
+    dl: &nalgebra::RowSVector<Real, 13>,
+    scales: &[Real; 13],
+) -> bool {
+    let reach: Real = (0..13).map(|k| (dl[k] * scales[k] * 1e-5).abs()).sum();
+    lambda.abs() > reach
+        && (lambda - t.release_band_n).abs() > reach
+        && (lambda - t.lambda_max_n).abs() > reach
+}
+
+/// The Jacobian the haptic thread adds in `mode` is that of the wrench it returns, against
+/// central differences, and the wrench is `wrench_at`'s.
+fn jacobian_matches_fd(
+    lin: &LinearizedContact,
+    body: &RigidBody,
+    y: &StateVector,
+    mode: LinearizationMode,
+) -> Result<(), TestCaseError> {
+    let mut jac = WrenchJacobian::zeros();
+    let kin = Kinematics::new(body, y);
+    let w = lin.add_wrench_and_jacobian(y, &kin, mode, &mut jac);
+    prop_assert_eq!(w, lin.wrench_at(y, &kin, mode));
+    let r = column_check(&jac, y, body.mass_kg(), |yy| {
+        lin.wrench_at(yy, &Kinematics::new(body, yy), mode)
+            .to_vector()
+    });
+    prop_assert!(r.is_ok(), "{}", r.unwrap_err());
+    Ok(())
+}
+
 proptest! {
     #![proptest_config(ProptestConfig::with_cases(1000))]
 
@@ -192,19 +228,9 @@ proptest! {
         let scales = crate::testutil::state_scales(&y, body.mass_kg());
         for t in lin.tangents() {
             let lambda = t.lambda0_n + (t.dlambda_dy * dy)[0];
-            let reach: Real = (0..13).map(|k| (t.dlambda_dy[k] * scales[k] * 1e-5).abs()).sum();
-            // λ = ε too: the smoothstep is C¹ there, not C², so the differences lose an order.
-            prop_assume!(lambda.abs() > reach
-                && (lambda - t.release_band_n).abs() > reach
-                && (lambda - t.lambda_max_n).abs() > reach);
+            prop_assume!(away_from_kinks(t, lambda, &t.dlambda_dy, &scales));
         }
-        let mut jac = WrenchJacobian::zeros();
-        let w = lin.add_wrench_and_jacobian(&y, &Kinematics::new(&body, &y), LinearizationMode::Linearized, &mut jac);
-        prop_assert_eq!(w, lin.wrench_at(&y, &Kinematics::new(&body, &y), LinearizationMode::Linearized));
-        let r = column_check(&jac, &y, body.mass_kg(), |yy| {
-            lin.wrench_at(yy, &Kinematics::new(&body, yy), LinearizationMode::Linearized).to_vector()
-        });
-        prop_assert!(r.is_ok(), "{}", r.unwrap_err());
+        jacobian_matches_fd(&lin, &body, &y, LinearizationMode::Linearized)?;
     }
 
     /// On its fixed frames the model is the penalty model itself (eq. 33) wherever no
@@ -263,18 +289,9 @@ proptest! {
             let frame = t.frame.unwrap();
             let (rho, lambda) = frame.normal_force(&y, &kin);
             let dl = frame.normal_force_gradient(&kin, &rho);
-            let reach: Real = (0..13).map(|k| (dl[k] * scales[k] * 1e-5).abs()).sum();
-            prop_assume!(lambda.abs() > reach
-                && (lambda - t.release_band_n).abs() > reach
-                && (lambda - t.lambda_max_n).abs() > reach);
+            prop_assume!(away_from_kinks(t, lambda, &dl, &scales));
         }
-        let mut jac = WrenchJacobian::zeros();
-        let w = lin.add_wrench_and_jacobian(&y, &kin, LinearizationMode::FixedFrames, &mut jac);
-        prop_assert_eq!(w, lin.wrench_at(&y, &kin, LinearizationMode::FixedFrames));
-        let r = column_check(&jac, &y, body.mass_kg(), |yy| {
-            lin.wrench_at(yy, &Kinematics::new(&body, yy), LinearizationMode::FixedFrames).to_vector()
-        });
-        prop_assert!(r.is_ok(), "{}", r.unwrap_err());
+        jacobian_matches_fd(&lin, &body, &y, LinearizationMode::FixedFrames)?;
     }
 
     /// On fixed frames, at any state: each contact pushes along `−n` only, never pulls, and
