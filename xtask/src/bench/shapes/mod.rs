@@ -15,6 +15,12 @@ use anyhow::{Context, ensure};
 use haptic_collision::{DegeneratePolicy, TriMesh};
 use haptic_core::{Real, Vec3};
 
+mod thread;
+
+#[cfg(test)]
+use thread::ThreadProfile;
+pub use thread::{threaded_nut, threaded_rod};
+
 /// Pressure angle of the gears' involute flanks (rad): 20°.
 const PRESSURE_ANGLE: Real = PI / 9.0;
 
@@ -178,147 +184,6 @@ fn gear_pair_pose(
         0.0
     };
     (Vec3::new(distance, 0.0, 0.0), angle)
-}
-
-/// An externally threaded rod (a bolt without head), axis z from 0 to `length_m`, with a
-/// right-handed single-start thread (the crest climbs one pitch per counter-clockwise turn
-/// about +z).
-///
-/// The lateral surface is `r(θ, z)` = the thread profile at the phase
-/// `s = fract((z − pitch·θ/2π)/pitch)`: a symmetric trapezoid with a flat crest of 1/8 pitch at
-/// the major radius, a flat root of 1/4 pitch at the minor radius, and straight flanks between.
-///
-/// - `major_radius_m`: crest radius (m); `minor_radius_m`: root radius (m), `0 < minor < major`.
-/// - `pitch_m`: axial distance between neighbouring crests (m); `length_m`: rod length (m).
-/// - `density`: `32·density` segments around, vertex rows on the lattice
-///   `z = j·pitch/(8·density)` (`8·density` per pitch) plus a row exactly at `z = length` (the
-///   lattice row just below is dropped if it would leave a row thinner than a quarter of the
-///   spacing); the ends are fans to a vertex on the axis. Triangles:
-///   `64·density·(rows + 1)` with `rows` intervals along z (8 256 for the M8-like rod of 16
-///   pitches at density 1, 32 896 at density 2).
-///
-/// Rows on a common lattice make a [`threaded_nut`] of the same thread and density, placed on the
-/// rod at an axial offset that is a multiple of the row spacing, conform to it vertex for vertex
-/// (but for the nut's last row when its length is off the lattice).
-///
-/// # Errors
-/// Sizes that are not positive and finite, `minor ≥ major`, `density == 0`, or too many vertices
-/// for `u32` indices.
-pub fn threaded_rod(
-    major_radius_m: Real,
-    minor_radius_m: Real,
-    pitch_m: Real,
-    length_m: Real,
-    density: usize,
-) -> anyhow::Result<TriMesh> {
-    check_density(density)?;
-    check_positive("length_m", length_m)?;
-    let thread = ThreadProfile::new(major_radius_m, minor_radius_m, pitch_m)?;
-    let segments = 32 * density;
-    let rows = thread.rows(length_m, density);
-    ensure_indexable(segments * rows.len() + 2)?;
-    let mut vertices = Vec::with_capacity(segments * rows.len() + 2);
-    let mut triangles = Vec::with_capacity(2 * segments * rows.len());
-    let side = lateral_grid(
-        &mut vertices,
-        &mut triangles,
-        segments,
-        &rows,
-        |theta, z| thread.radius(theta, z),
-        true,
-    );
-    let (bottom, top) = (vertices.len() as u32, vertices.len() as u32 + 1);
-    vertices.push(Vec3::zeros());
-    vertices.push(Vec3::new(0.0, 0.0, length_m));
-    let last = side.last_row();
-    for i in 0..segments {
-        triangles.push([bottom, side.id(0, i + 1), side.id(0, i)]);
-        triangles.push([top, side.id(last, i), side.id(last, i + 1)]);
-    }
-    build("threaded rod", vertices, triangles)
-}
-
-/// A cylindrical nut, axis z from 0 to `length_m`, whose internal thread mates
-/// [`threaded_rod`]'s: the inner surface is `r_in(θ, z) = r(θ, z) + clearance` with the rod's
-/// profile `r` and phase convention, so a rod of the same thread at the identity pose sits in the
-/// nut with a radial gap of `clearance_m` everywhere.
-///
-/// - `major_radius_m`, `minor_radius_m`, `pitch_m`: the mating rod's thread (m).
-/// - `length_m`: nut length along z (m).
-/// - `outer_radius_m`: radius of the outer cylinder (m), more than `major + clearance`.
-/// - `clearance_m`: radial gap to the rod (m, ≥ 0).
-/// - `density`: inner surface on the rod's grid (`32·density` segments, rows on the rod's lattice
-///   plus `z = length`); outer cylinder with the same `32·density` angles and `2·density` rows;
-///   flat annular end caps joining the inner and outer rings with one quad per segment.
-///   Triangles: `64·density·(rows + 2·density + 2)` with `rows` intervals of the inner surface
-///   (3 520 for an 8 mm nut of 1.25 mm pitch at density 1, 13 952 at density 2).
-///
-/// The inner surface is the outside of the solid: its normals point towards the axis.
-///
-/// # Errors
-/// Sizes that are not positive and finite, `minor ≥ major`, a negative clearance, an outer
-/// radius not above `major + clearance`, `density == 0`, or too many vertices for `u32` indices.
-pub fn threaded_nut(
-    major_radius_m: Real,
-    minor_radius_m: Real,
-    pitch_m: Real,
-    length_m: Real,
-    outer_radius_m: Real,
-    clearance_m: Real,
-    density: usize,
-) -> anyhow::Result<TriMesh> {
-    check_density(density)?;
-    check_positive("length_m", length_m)?;
-    let thread = ThreadProfile::new(major_radius_m, minor_radius_m, pitch_m)?;
-    ensure!(
-        clearance_m.is_finite() && clearance_m >= 0.0,
-        "clearance_m = {clearance_m} must be finite and not negative"
-    );
-    ensure!(
-        outer_radius_m.is_finite() && outer_radius_m > major_radius_m + clearance_m,
-        "outer_radius_m = {outer_radius_m} must exceed major_radius_m + clearance_m = {}",
-        major_radius_m + clearance_m
-    );
-    let segments = 32 * density;
-    let inner_rows = thread.rows(length_m, density);
-    let outer_layers = 2 * density;
-    let outer_rows: Vec<Real> = (0..=outer_layers)
-        .map(|j| length_m * (j as Real / outer_layers as Real))
-        .collect();
-    let vertex_count = segments * (inner_rows.len() + outer_rows.len());
-    ensure_indexable(vertex_count)?;
-    let mut vertices = Vec::with_capacity(vertex_count);
-    let mut triangles = Vec::with_capacity(2 * segments * (inner_rows.len() + outer_rows.len()));
-    let inner = lateral_grid(
-        &mut vertices,
-        &mut triangles,
-        segments,
-        &inner_rows,
-        |theta, z| thread.radius(theta, z) + clearance_m,
-        false,
-    );
-    let outer = lateral_grid(
-        &mut vertices,
-        &mut triangles,
-        segments,
-        &outer_rows,
-        |_, _| outer_radius_m,
-        true,
-    );
-    let (inner_top, outer_top) = (inner.last_row(), outer.last_row());
-    for k in 0..segments {
-        let (i0, i1) = (inner.id(0, k), inner.id(0, k + 1));
-        let (o0, o1) = (outer.id(0, k), outer.id(0, k + 1));
-        // Bottom cap, normal −z.
-        triangles.push([i0, o1, o0]);
-        triangles.push([i0, i1, o1]);
-        let (i0, i1) = (inner.id(inner_top, k), inner.id(inner_top, k + 1));
-        let (o0, o1) = (outer.id(outer_top, k), outer.id(outer_top, k + 1));
-        // Top cap, normal +z.
-        triangles.push([i0, o0, o1]);
-        triangles.push([i0, o1, i1]);
-    }
-    build("threaded nut", vertices, triangles)
 }
 
 /// Tooth outline of an involute spur gear (see [`spur_gear`]), tooth 0 centred on +x.
@@ -492,83 +357,6 @@ fn star_prism(
         triangles.push([top, id(layers, i), id(layers, i + 1)]);
     }
     build(what, vertices, triangles)
-}
-
-/// The thread of [`threaded_rod`] and [`threaded_nut`].
-#[derive(Debug, Clone, Copy)]
-struct ThreadProfile {
-    /// Crest radius (m).
-    major: Real,
-    /// Root radius (m).
-    minor: Real,
-    /// Axial distance between crests (m).
-    pitch: Real,
-}
-
-impl ThreadProfile {
-    /// Length of the crest flat, in pitches.
-    const CREST: Real = 1.0 / 8.0;
-    /// Length of each flank, in pitches.
-    const FLANK: Real = 5.0 / 16.0;
-    /// Length of the root flat, in pitches.
-    const ROOT: Real = 1.0 / 4.0;
-
-    /// A thread of crest radius `major` (m), root radius `minor` (m) and pitch `pitch` (m).
-    fn new(major: Real, minor: Real, pitch: Real) -> anyhow::Result<Self> {
-        check_positive("minor_radius_m", minor)?;
-        check_positive("major_radius_m", major)?;
-        check_positive("pitch_m", pitch)?;
-        ensure!(
-            minor < major,
-            "minor_radius_m = {minor} must be below major_radius_m = {major}"
-        );
-        Ok(Self {
-            major,
-            minor,
-            pitch,
-        })
-    }
-
-    /// Height of the profile at phase `s` ∈ [0, 1] as a fraction of the thread depth: 1 on the
-    /// crest (`s` ∈ [0, 1/8)), falling along a flank to 0 on the root ([7/16, 11/16)), rising
-    /// back to 1 at `s = 1`.
-    fn depth_fraction(s: Real) -> Real {
-        let falling = Self::CREST;
-        let root = falling + Self::FLANK;
-        let rising = root + Self::ROOT;
-        if s < falling {
-            1.0
-        } else if s < root {
-            1.0 - (s - falling) / Self::FLANK
-        } else if s < rising {
-            0.0
-        } else {
-            (s - rising) / Self::FLANK
-        }
-    }
-
-    /// Radius r(θ, z) (m) of the rod's thread surface at angle `theta` (rad) and height `z` (m).
-    fn radius(&self, theta: Real, z: Real) -> Real {
-        let s = (z / self.pitch - theta / TAU).rem_euclid(1.0);
-        self.minor + (self.major - self.minor) * Self::depth_fraction(s)
-    }
-
-    /// Heights (m) of the vertex rows from 0 to `length` (m): the lattice `j·pitch/(8·density)`
-    /// below `length`, then `length` itself. The last lattice row is dropped when it lies within
-    /// a quarter of the spacing below `length`, so that no row is thinner than that.
-    fn rows(&self, length: Real, density: usize) -> Vec<Real> {
-        let step = self.pitch / (8 * density) as Real;
-        let full = (length / step).floor() as usize;
-        let remainder = length - step * full as Real;
-        let keep = if full > 0 && remainder < 0.25 * step {
-            full
-        } else {
-            full + 1
-        };
-        let mut rows: Vec<Real> = (0..keep).map(|j| step * j as Real).collect();
-        rows.push(length);
-        rows
-    }
 }
 
 /// Vertices of a lateral grid appended by [`lateral_grid`]: row `j`, angle index `i`.
