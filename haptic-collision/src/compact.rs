@@ -21,18 +21,25 @@
 //!   A cluster that takes whole cells therefore gets the same centroid, weight and depth as
 //!   from the raw contacts. (Keeping the area and the area-weighted depth instead makes every
 //!   representative shallower: on the jaws that cost a third of the force.)
-//! - A cell whose normals disagree (`|Σ w n| < Σ w`, a curved surface) is written as two
-//!   contacts at its point and depth, with half its area each and the normals `m ± s u`:
-//!   `m = Σ w n / Σ w`, `s = √(1 − |m|²)` (so both are unit), `u` the direction across `m` in
-//!   which the cell's normals spread most (principal axis of their covariance). Together they
-//!   keep `Σ w n`, so the penalty the contacts stand for, `Σ a (d + δ) n`, is the raw contacts'
-//!   (its torque to second order in the cell size), and so is each cluster's normal when it
-//!   takes whole cells. One contact per cell would report `Σ w` along `m`'s direction: more
-//!   force than the raw contacts by `Σ w − |Σ w n|` per cell, up to 7 % on pressed spheres
-//!   (`lod::tests::compact_contacts_give_the_all_pairs_wrench`). Splits count against `max`: a
-//!   pass fits when its cells and their splits do. Only below `max = 13` (six normal bins, each
-//!   split, and the deepest contact) may there be no room for every split; then the cells that
-//!   lose most are split first.
+//! - A cell whose normals disagree (`|Σ w n| < Σ w`, a curved surface, a thread's two flanks)
+//!   is written as two contacts at its point, with half its weight each and the normals
+//!   `m ± s u`: `m = Σ w n / Σ w`, `s = √(1 − |m|²)` (so both are unit). Together they keep
+//!   `Σ w n`, so the penalty the contacts stand for, `Σ a (d + δ) n`, is the raw contacts' (its
+//!   torque to second order in the cell size), and so is each cluster's normal when it takes
+//!   whole cells. One contact per cell would report `Σ w` along `m`'s direction: more force
+//!   than the raw contacts by `Σ w − |Σ w n|` per cell, up to 7 % on pressed spheres
+//!   (`lod::tests::compact_contacts_give_the_all_pairs_wrench`). The two halves' depths are
+//!   `d ± e` (their areas `(Σ w / 2) / (d ± e + δ)`, so `Σ w` and `Σ w d` are kept too), and `u`
+//!   and `e` are chosen so that they also keep the part across `m` of `Σ w g n`
+//!   (`g = d + δ`), the penalty the clustering reads (`haptic-cluster`'s stiffness shares): `u`
+//!   along that part of `Σ w (g − ḡ) n`, the way the cell's depths lean with its normals (a
+//!   thread's loaded flank deeper than the other), and `e = |that part| / (Σ w s)`. Where the
+//!   depths do not lean, `e = 0` and `u` is the direction across `m` in which the normals spread
+//!   most (principal axis of their covariance). `e` is capped so that neither half is deeper
+//!   than the cell's deepest contact nor at the weights' floor, and their areas add up to no
+//!   more than the cell's (`e² ≤ ḡ (ḡ − Σ w / Σ a)`); the part of `Σ w g n` along `m` is not
+//!   kept. Splits count against `max`: a pass fits when its cells and their splits do. Only below `max = 13` (six normal bins, each split, and the deepest contact) may there
+//!   be no room for every split; then the cells that lose most are split first.
 //! - The deepest raw contact is kept as it is, so the closest approach (or deepest point) that
 //!   the query reports is unchanged by compaction.
 //!
@@ -60,6 +67,10 @@ struct Cell {
     n: Vec3,
     /// `Σ w_i d_i`.
     w_depth: Real,
+    /// `Σ w_i g_i n_i` (`g = d + δ`): the penalty the clustering reads of the cell.
+    wgn: Vec3,
+    /// `Σ a_i` (m²).
+    area_m2: Real,
     /// `Σ w_i n_i n_iᵀ`: xx, yy, zz, xy, xz, yz.
     nn: [Real; 6],
     /// Normal of the cell's deepest contact (the fallback when the normals cancel).
@@ -94,6 +105,8 @@ impl Default for Cell {
             r_a: Vec3::zeros(),
             n: Vec3::zeros(),
             w_depth: 0.0,
+            wgn: Vec3::zeros(),
+            area_m2: 0.0,
             nn: [0.0; 6],
             deepest_n: Vec3::z(),
             deepest_d: Real::NEG_INFINITY,
@@ -265,7 +278,10 @@ impl Compactor {
                 self.used.push(slot as u32);
             }
             let area = c.area_m2.max(AREA_FLOOR_M2);
-            let w = area * c.gap_weight_m(delta_m);
+            let g = c.gap_weight_m(delta_m);
+            let w = area * g;
+            cell.wgn += c.n * (w * g);
+            cell.area_m2 += area;
             cell.count += 1;
             cell.w += w;
             cell.p_a += c.p_a * w;
@@ -333,24 +349,46 @@ pub(crate) fn hash(key: u64) -> u64 {
     h ^ (h >> 29)
 }
 
-/// A merged cell whose normals disagree as two contacts (see the module docs): its contact with
-/// half the area each, and the normals `m ± s u`, `m = Σ w n / Σ w`, `s = √(1 − |m|²)`, `u` the
-/// direction (across `m`) in which the cell's normals spread most.
+/// A merged cell whose normals disagree as two contacts (see the module docs): half its weight
+/// each, the normals `m ± s u` (`m = Σ w n / Σ w`, `s = √(1 − |m|²)`) and the depths `d ± e`,
+/// which keep `Σ w n` and the part of `Σ w g n` across `m`.
 fn split_contacts(c: &Cell, delta_m: Real) -> [Contact; 2] {
     let one = merged_contact(c, delta_m);
     let m = c.n / c.w;
     let s = (1.0 - m.norm_squared()).max(0.0).sqrt();
-    let u = spread_direction(c, &m);
-    let half = |n: Vec3| {
+    // How the cell's depths follow its normals, across m: `Σ w g n − ḡ Σ w n`.
+    let g_bar = gap_weight_m(one.depth_m, delta_m);
+    let mhat = m.try_normalize(0.0).unwrap_or(Vec3::z());
+    let lean = c.wgn - c.n * g_bar;
+    let lean = lean - mhat * mhat.dot(&lean);
+    let (u, e) = match lean.try_normalize(1e-12 * c.w * g_bar) {
+        Some(u) if s > 0.0 => {
+            // Neither half deeper than the cell's deepest contact, nor at the weights' floor,
+            // and their areas, (w/2)/(ḡ ± e), not more than the cell's: e² ≤ ḡ (ḡ − w / Σ a).
+            let floor = gap_weight_m(-delta_m, delta_m);
+            let area_room = (g_bar * (g_bar - c.w / c.area_m2)).max(0.0).sqrt();
+            let room = (c.deepest_d - one.depth_m)
+                .min(g_bar - 2.0 * floor)
+                .min(area_room)
+                .max(0.0);
+            (u, (lean.norm() / (c.w * s)).min(room))
+        }
+        _ => (spread_direction(c, &m), 0.0),
+    };
+    let half = |n: Vec3, d: Real| {
         let n = n.normalize();
         Contact {
             n,
-            p_b: one.p_a - n * one.depth_m,
-            area_m2: 0.5 * one.area_m2,
+            p_b: one.p_a - n * d,
+            depth_m: d,
+            area_m2: 0.5 * c.w / gap_weight_m(d, delta_m),
             ..one
         }
     };
-    [half(m + u * s), half(m - u * s)]
+    [
+        half(m + u * s, one.depth_m + e),
+        half(m - u * s, one.depth_m - e),
+    ]
 }
 
 /// The unit direction across `m` in which the cell's normals spread most: the principal axis
@@ -478,7 +516,7 @@ mod tests {
                 prop_assert!((n1 - n0).norm() <= 1e-9 * w0, "{n0:?} {n1:?}");
             }
             let area = |cs: &[Contact]| cs.iter().map(|c| c.area_m2).sum::<Real>();
-            prop_assert!(area(set.as_slice()) <= area(&raw) * (1.0 + 1e-9));
+            prop_assert!(area(set.as_slice()) <= area(&raw) * (1.0 + 1e-9), "area ratio {}", area(set.as_slice()) / area(&raw));
             let deepest = raw.iter().map(|c| c.depth_m).fold(Real::NEG_INFINITY, Real::max);
             prop_assert!(set.iter().any(|c| c.depth_m == deepest && raw.contains(c)));
             for c in set.iter() {
@@ -486,6 +524,48 @@ mod tests {
                 prop_assert!((c.p_a - c.p_b - c.n * c.depth_m).norm() < 1e-12);
             }
         }
+    }
+
+    /// `Σ w g n`, the penalty the clustering reads (`g = d + δ`).
+    fn penalty(cs: &[Contact]) -> Vec3 {
+        cs.iter()
+            .map(|c| c.n * (c.area_m2 * (c.depth_m + DELTA).powi(2)))
+            .sum()
+    }
+
+    #[test]
+    fn a_threads_flanks_keep_the_penalty_the_clustering_reads() {
+        // Both flanks of a thread in every cell (one normal bin: their normals lean either way
+        // along z), the upper flanks pressed deeper: merging them at one depth would push as if
+        // both were equally deep, and lose the axial force their depths make. (The flanks'
+        // weights `a g` are equal, so the cells' mean normals are radial and the depths'
+        // lean is all across them: the part the split keeps exactly.)
+        let mut set = ContactSet::new();
+        let (g_upper, g_lower) = (3e-4 + DELTA, 1e-4 + DELTA);
+        for i in 0..2000 {
+            let (y, z) = ((i % 40) as Real * 1e-4, (i / 40) as Real * 1e-4);
+            let upper = (i / 40) % 2 == 0;
+            let n = Vec3::new(1.0, 0.0, if upper { 0.5 } else { -0.5 });
+            let (d, a) = if upper {
+                (3e-4, 1e-8 * g_lower / g_upper)
+            } else {
+                (1e-4, 1e-8)
+            };
+            set.push(contact(Vec3::new(0.0, y, z), n, d, a));
+        }
+        let raw: Vec<Contact> = set.iter().copied().collect();
+        Compactor::new().compact(&mut set, DELTA, 16);
+        assert!(set.len() <= 16);
+        // Merged at one depth, the balanced flanks would push with no axial force at all. (Not
+        // to rounding: the deepest contact is kept apart, which unbalances its cell.)
+        let (p0, p1) = (penalty(&raw), penalty(set.as_slice()));
+        assert!((p1 - p0).norm() <= 1e-4 * p0.norm(), "{p0:?} {p1:?}");
+        assert!((p1.z / p0.z - 1.0).abs() < 1e-3, "{p0:?} {p1:?}");
+        let (_, _, _, _, n0) = moments(&raw);
+        let (_, _, _, _, n1) = moments(set.as_slice());
+        assert!((n1 - n0).norm() <= 1e-9 * n0.norm());
+        let area = |cs: &[Contact]| cs.iter().map(|c| c.area_m2).sum::<Real>();
+        assert!(area(set.as_slice()) <= area(&raw) * (1.0 + 1e-12));
     }
 
     #[test]
