@@ -5,7 +5,7 @@
 //!
 //! A collision query near a large contact area returns tens to hundreds of contacts. Summing a
 //! penalty spring per contact would make the contact stiffness grow with the number of contacts,
-//! and the haptic loop unstable. The [`Clusterer`] reduces them to at most `K` representatives
+//! and the haptic loop unstable. The [`Clusterer`] reduces them to at most `K` clusters
 //! (default 5), so the total translational stiffness is bounded by `K · k_c` whatever the
 //! triangle count.
 //!
@@ -38,6 +38,15 @@
 //!   `K'`, so the total translational stiffness stays within `K · k_c`. A cluster whose normals
 //!   cancel pushes as little as they do. A contact's own share (1 from a back-end) scales the
 //!   penalty it adds.
+//! - **Torque pairs** (not in the paper; [`ClusterParams::torque_pairs`], on by default): one
+//!   spring at its cluster's centroid keeps the cluster's force but not the couple of its
+//!   contacts about that point, and where a cluster's forces nearly cancel (a thread pressed on
+//!   both flanks) that couple is most of what turns the tool. Each cluster is then written as
+//!   two springs either side of its centroid, pushing with `P/2 ± G`, that keep its force and
+//!   its torque (`representatives.rs`): up to `2K` representatives, each a point pressed on a
+//!   fixed plane (so the pair has a potential), their shares within the cluster's part of the
+//!   `K k_c` bound. With them the clustered wrench is the contacts' own penalty wrench whatever
+//!   the partition, force and torque.
 //! - After warm-up (the largest contact count seen so far), a call allocates nothing.
 //!
 //! It owns only the clustering: contacts come from a `haptic_core::CollisionBackend`, and the
@@ -58,14 +67,22 @@
 //! let mut clusterer = Clusterer::new(ClusterParams { max_clusters: 2, ..Default::default() }).unwrap();
 //! let mut reps = ContactSet::new();
 //! let stats = clusterer.cluster(&raw, 1e-3, &mut reps).unwrap();
-//! assert_eq!(reps.len(), 2);
+//! assert_eq!(stats.clusters, 2);
 //! assert!(stats.converged);
+//! // Each cluster is a torque pair of two springs (the default).
+//! assert_eq!(reps.len(), 4);
+//! // The paper's model: one spring per cluster.
+//! let paper = ClusterParams { max_clusters: 2, torque_pairs: false, ..Default::default() };
+//! Clusterer::new(paper).unwrap().cluster(&raw, 1e-3, &mut reps).unwrap();
+//! assert_eq!(reps.len(), 2);
 //! ```
 
 use haptic_core::{Contact, ContactSet, CoreError, Real, Vec3};
 
 mod points;
+mod representatives;
 use points::{Points, closest_free};
+use representatives::Accumulator;
 use thiserror::Error;
 
 /// Parameters of the clustering.
@@ -78,15 +95,32 @@ pub struct ClusterParams {
     pub max_iterations: usize,
     /// Seed from the previous call's clusters (temporal coherence); `false` always cold-starts.
     pub warm_start: bool,
+    /// Write each cluster as a torque pair: two springs that keep its contacts' torque as well
+    /// as their force (the crate docs), so up to `2K` representatives
+    /// ([`ClusterParams::max_representatives`]). `false` writes one spring per cluster, the
+    /// paper's model.
+    pub torque_pairs: bool,
+}
+
+impl ClusterParams {
+    /// The most representatives a call writes: `K`, or `2K` with torque pairs.
+    pub fn max_representatives(&self) -> usize {
+        if self.torque_pairs {
+            2 * self.max_clusters
+        } else {
+            self.max_clusters
+        }
+    }
 }
 
 impl Default for ClusterParams {
-    /// `K = 5`, at most 16 iterations, warm start on.
+    /// `K = 5`, at most 16 iterations, warm start on, torque pairs.
     fn default() -> Self {
         Self {
             max_clusters: 5,
             max_iterations: 16,
             warm_start: true,
+            torque_pairs: true,
         }
     }
 }
@@ -287,11 +321,29 @@ impl Clusterer {
     /// been the previous call's output (only their `p_a` and `depth_m` are used). Useful to
     /// restore a saved state, or to cluster two contact sets of the same configuration from the
     /// same seeds, so that they are compared in the same basin of Lloyd's method rather than in
-    /// whichever local minimum each chain of warm starts reached.
+    /// whichever local minimum each chain of warm starts reached. With torque pairs
+    /// ([`ClusterParams::torque_pairs`]) the representatives are springs beside their clusters'
+    /// centres: use [`Clusterer::warm_start_from_centres`] with another clusterer's
+    /// [`Clusterer::cluster_centres`] instead.
     pub fn warm_start_from(&mut self, representatives: &[Contact]) {
         self.previous.clear();
         self.previous
             .extend(representatives.iter().map(|r| (r.p_a, r.depth_m)));
+    }
+
+    /// The centre (world, m) and mean depth (m) of each cluster of the last call, the history
+    /// the next call warm-starts from. With one spring per cluster they are the
+    /// representatives' `p_a` and `depth_m`; a torque pair's two springs sit either side of its
+    /// cluster's centre. Empty after an empty input, a [`Clusterer::reset`] or an error.
+    pub fn cluster_centres(&self) -> &[(Vec3, Real)] {
+        &self.previous
+    }
+
+    /// Makes `centres` (as [`Clusterer::cluster_centres`] gives them) the history that the next
+    /// call warm-starts from: [`Clusterer::warm_start_from`] for any kind of representative.
+    pub fn warm_start_from_centres(&mut self, centres: &[(Vec3, Real)]) {
+        self.previous.clear();
+        self.previous.extend_from_slice(centres);
     }
 
     /// The cluster index of each contact of the last call.
@@ -389,10 +441,8 @@ impl Clusterer {
             self.costs.push(cost);
         }
 
-        self.previous.clear();
-        self.previous.extend(out.iter().map(|r| (r.p_a, r.depth_m)));
         Ok(ClusterStats {
-            clusters: out.len(),
+            clusters: self.previous.len(),
             iterations,
             converged,
             warm,
@@ -656,70 +706,6 @@ impl Clusterer {
             })
             .sum()
     }
-
-    /// One representative per cluster (eqs. 30–32, see the crate docs), in one pass over the
-    /// contacts.
-    /// Returns the cost `E` (eq. 28) of the final assignment and centroids.
-    fn write_representatives(
-        &mut self,
-        contacts: &[Contact],
-        delta_m: Real,
-        out: &mut ContactSet,
-    ) -> Real {
-        let k = self.centroids.len();
-        self.acc.clear();
-        self.acc.resize(k, Accumulator::default());
-        let mut total_w = 0.0;
-        for (i, ((c, &a), &w)) in contacts
-            .iter()
-            .zip(&self.assign)
-            .zip(&self.weights)
-            .enumerate()
-        {
-            let acc = &mut self.acc[a as usize];
-            acc.cost += w * (c.p_a - self.centroids[a as usize]).norm_squared();
-            acc.w += w;
-            acc.p_a += c.p_a * w;
-            acc.r_a += c.r_a * w;
-            acc.penalty += c.n * (w * weight(c.depth_m, delta_m) * c.stiffness_share);
-            acc.d += c.depth_m * w;
-            acc.area_m2 += c.area_m2;
-            if acc.deepest == usize::MAX || c.depth_m > contacts[acc.deepest].depth_m {
-                acc.deepest = i;
-            }
-            total_w += w;
-        }
-        let written = self.acc.iter().filter(|a| a.deepest != usize::MAX).count() as Real;
-        for acc in &self.acc {
-            if acc.deepest == usize::MAX {
-                continue;
-            }
-            let deepest = &contacts[acc.deepest];
-            let p_a = acc.p_a / acc.w;
-            let d = (acc.d / acc.w).max(-delta_m);
-            // Opposed normals can cancel: fall back to the deepest contact's normal (the share
-            // is then about 0: the cluster pushes as little as its contacts do).
-            let n = acc
-                .penalty
-                .try_normalize(1e-9 * acc.w * delta_m)
-                .unwrap_or(deepest.n);
-            // s_k = K' |Σ w g n| / (W g_k): the cluster's part of the area-weighted penalty.
-            let share = written * acc.penalty.norm() / (total_w * weight(d, delta_m));
-            self.representative_weights.push(acc.w);
-            out.push(Contact {
-                p_a,
-                r_a: acc.r_a / acc.w,
-                p_b: p_a - d * n,
-                n,
-                depth_m: d,
-                feature_a: deepest.feature_a,
-                feature_b: deepest.feature_b,
-                area_m2: acc.area_m2,
-                stiffness_share: share,
-            });
-        }
-        self.acc.iter().map(|a| a.cost).sum()
-    }
 }
 
 /// A cheap screen of a contact: the sum of all its fields is finite only if each is, and
@@ -750,35 +736,6 @@ fn validate_one(index: usize, c: &Contact) -> Result<(), ClusterError> {
             what: "field",
         },
     })
-}
-
-/// Weighted sums over one cluster's contacts.
-#[derive(Debug, Clone, Copy)]
-struct Accumulator {
-    cost: Real,
-    w: Real,
-    p_a: Vec3,
-    r_a: Vec3,
-    /// `Σ w_i g_i s_i n_i`: the direction and size of the cluster's penalty.
-    penalty: Vec3,
-    d: Real,
-    area_m2: Real,
-    deepest: usize,
-}
-
-impl Default for Accumulator {
-    fn default() -> Self {
-        Self {
-            cost: 0.0,
-            w: 0.0,
-            p_a: Vec3::zeros(),
-            r_a: Vec3::zeros(),
-            penalty: Vec3::zeros(),
-            d: 0.0,
-            area_m2: 0.0,
-            deepest: usize::MAX,
-        }
-    }
 }
 
 #[cfg(test)]

@@ -10,11 +10,20 @@ fn contact(p: Vec3, n: Vec3, d: Real) -> Contact {
     Contact::new(p, p, p - d * n.normalize(), n.normalize(), d).unwrap()
 }
 
-/// A clusterer of at most `k` clusters, the other parameters the defaults.
+/// The paper's model: the default parameters with one spring per cluster (no torque pairs),
+/// for the tests of the clustering itself and of one representative per cluster.
+fn paper() -> ClusterParams {
+    ClusterParams {
+        torque_pairs: false,
+        ..Default::default()
+    }
+}
+
+/// A clusterer of at most `k` clusters, one spring each, the other parameters the defaults.
 fn clusterer(k: usize) -> Clusterer {
     Clusterer::new(ClusterParams {
         max_clusters: k,
-        ..Default::default()
+        ..paper()
     })
     .unwrap()
 }
@@ -107,7 +116,7 @@ fn fewer_contacts_than_k_give_one_cluster_each() {
     let contacts: Vec<Contact> = (0..3)
         .map(|i| contact(Vec3::new(0.01 * i as Real, 0.0, 0.0), Vec3::z(), 1e-4))
         .collect();
-    let mut c = Clusterer::new(ClusterParams::default()).unwrap();
+    let mut c = Clusterer::new(paper()).unwrap();
     let mut reps = ContactSet::new();
     c.cluster(&contacts, DELTA_M, &mut reps).unwrap();
     assert_eq!(reps.len(), 3);
@@ -123,7 +132,7 @@ fn fewer_contacts_than_k_give_one_cluster_each() {
 #[test]
 fn coincident_contacts_give_one_cluster() {
     let contacts = vec![contact(Vec3::new(0.1, 0.2, 0.3), Vec3::z(), 5e-4); 12];
-    let mut c = Clusterer::new(ClusterParams::default()).unwrap();
+    let mut c = Clusterer::new(paper()).unwrap();
     let mut reps = ContactSet::new();
     let stats = c.cluster(&contacts, DELTA_M, &mut reps).unwrap();
     assert_eq!(reps.len(), 1);
@@ -216,7 +225,7 @@ fn bad_input_gives_typed_errors() {
         .unwrap_err(),
         ClusterError::TooManyIterations { asked: 1 << 40 }
     );
-    let mut c = Clusterer::new(ClusterParams::default()).unwrap();
+    let mut c = Clusterer::new(paper()).unwrap();
     let mut reps = ContactSet::new();
     let good = contact(Vec3::zeros(), Vec3::z(), 0.0);
     let mut nan = good;
@@ -264,7 +273,7 @@ fn bad_input_gives_typed_errors() {
 
 #[test]
 fn empty_input_gives_no_representative() {
-    let mut c = Clusterer::new(ClusterParams::default()).unwrap();
+    let mut c = Clusterer::new(paper()).unwrap();
     let mut reps = ContactSet::new();
     reps.push(contact(Vec3::zeros(), Vec3::z(), 0.0));
     let stats = c.cluster(&[], DELTA_M, &mut reps).unwrap();
@@ -303,7 +312,7 @@ fn largest_jump(before: &[Contact], now: &[Contact]) -> Real {
 fn drift_run(warm_start: bool) -> Real {
     let mut c = Clusterer::new(ClusterParams {
         warm_start,
-        ..Default::default()
+        ..paper()
     })
     .unwrap();
     let mut reps = ContactSet::new();
@@ -336,7 +345,7 @@ fn warm_start_moves_representatives_continuously() {
 #[test]
 fn same_input_gives_same_output() {
     let run = || {
-        let mut c = Clusterer::new(ClusterParams::default()).unwrap();
+        let mut c = Clusterer::new(paper()).unwrap();
         let mut reps = ContactSet::new();
         let mut all = Vec::new();
         for frame in 0..50 {
@@ -353,7 +362,7 @@ fn same_input_gives_same_output() {
         assert_eq!(x, y);
     }
     // And the same input in consecutive calls, once warm, is a fixed point.
-    let mut c = Clusterer::new(ClusterParams::default()).unwrap();
+    let mut c = Clusterer::new(paper()).unwrap();
     let frame = drifting_frame(0, 40);
     let (mut r1, mut r2) = (ContactSet::new(), ContactSet::new());
     c.cluster(&frame, DELTA_M, &mut r1).unwrap();
@@ -367,12 +376,12 @@ fn warm_start_from_given_representatives_replays_that_history() {
     // Clustering frame B after frame A, and clustering B in a fresh clusterer told A's
     // representatives, give the same output; a cold start on B need not.
     let (a, b) = (drifting_frame(0, 40), drifting_frame(300, 40));
-    let mut chained = Clusterer::new(ClusterParams::default()).unwrap();
+    let mut chained = Clusterer::new(paper()).unwrap();
     let (mut reps_a, mut reps_b) = (ContactSet::new(), ContactSet::new());
     chained.cluster(&a, DELTA_M, &mut reps_a).unwrap();
     chained.cluster(&b, DELTA_M, &mut reps_b).unwrap();
 
-    let mut told = Clusterer::new(ClusterParams::default()).unwrap();
+    let mut told = Clusterer::new(paper()).unwrap();
     told.warm_start_from(reps_a.as_slice());
     let mut reps = ContactSet::new();
     let stats = told.cluster(&b, DELTA_M, &mut reps).unwrap();
@@ -416,7 +425,7 @@ fn area_weights_make_the_representative_independent_of_the_tessellation() {
     // columns' extra contacts pull it towards them.
     let one = ClusterParams {
         max_clusters: 1,
-        ..Default::default()
+        ..paper()
     };
     let rep = |contacts: &[Contact]| {
         let mut c = Clusterer::new(one).unwrap();
@@ -544,4 +553,184 @@ fn one_cluster_of_one_face_has_the_papers_stiffness() {
     c.cluster(&opposed, DELTA_M, &mut reps).unwrap();
     assert_eq!(reps.len(), 1);
     assert!(reps.as_slice()[0].stiffness_share < 1e-9);
+}
+
+/// The penalty wrench the representatives make at their own state (unit `k_c`, the sign
+/// aside): `Σ_k s_k g_k n_k` and its torque about the origin, `Σ_k p_k × s_k g_k n_k`.
+fn representatives_wrench(reps: &[Contact]) -> (Vec3, Vec3) {
+    reps.iter()
+        .fold((Vec3::zeros(), Vec3::zeros()), |(f, t), r| {
+            let push = r.n * (r.stiffness_share * weight(r.depth_m, DELTA_M));
+            (f + push, t + r.p_a.cross(&push))
+        })
+}
+
+/// The contacts' own penalty wrench that the shares and the torque pairs keep:
+/// `K' Σ_i w_i g_i n_i / W` and its torque about the origin.
+fn contacts_wrench(contacts: &[Contact], clusters: usize) -> (Vec3, Vec3) {
+    let with_areas = contacts.iter().all(|c| c.area_m2 > 0.0);
+    let w = |c: &Contact| weight(c.depth_m, DELTA_M) * if with_areas { c.area_m2 } else { 1.0 };
+    let total: Real = contacts.iter().map(w).sum();
+    let scale = clusters as Real / total;
+    contacts
+        .iter()
+        .fold((Vec3::zeros(), Vec3::zeros()), |(f, t), c| {
+            let push = c.n * (w(c) * weight(c.depth_m, DELTA_M) * scale);
+            (f + push, t + c.p_a.cross(&push))
+        })
+}
+
+/// A clusterer of at most `k` clusters written as torque pairs.
+fn paired(k: usize) -> Clusterer {
+    Clusterer::new(ClusterParams {
+        max_clusters: k,
+        torque_pairs: true,
+        ..Default::default()
+    })
+    .unwrap()
+}
+
+#[test]
+fn torque_pairs_give_a_tilted_faces_wrench_whatever_the_partition() {
+    // A face pressed deeper at one side: its centre of pressure is off every cluster's centroid,
+    // so one spring per cluster loses a couple, and how much depends on the partition.
+    let face = tilted_face(12, true);
+    for k in 1..=5 {
+        let mut c = paired(k);
+        let mut reps = ContactSet::new();
+        let stats = c.cluster(&face, DELTA_M, &mut reps).unwrap();
+        let (f, t) = representatives_wrench(reps.as_slice());
+        let (f0, t0) = contacts_wrench(&face, stats.clusters);
+        assert!(
+            (f - f0).norm() <= 1e-12 * f0.norm(),
+            "k = {k}: {f:?} vs {f0:?}"
+        );
+        assert!(
+            (t - t0).norm() <= 1e-9 * t0.norm(),
+            "k = {k}: {t:?} vs {t0:?}"
+        );
+        assert_eq!(reps.len(), 2 * stats.clusters);
+        let shares: Real = reps.iter().map(|r| r.stiffness_share).sum();
+        assert!(shares <= stats.clusters as Real * (1.0 + 1e-12), "{shares}");
+        // One spring per cluster, same partition: the force, not the couple.
+        let mut one = clusterer(k);
+        let mut single = ContactSet::new();
+        one.cluster(&face, DELTA_M, &mut single).unwrap();
+        let (fs, ts) = representatives_wrench(single.as_slice());
+        assert!((fs - f0).norm() <= 1e-12 * f0.norm());
+        if k == 1 {
+            assert!(
+                (ts - t0).norm() > 1e-3 * t0.norm(),
+                "one spring kept the couple"
+            );
+        }
+    }
+}
+
+/// Contacts on a thread: a ring of radius 4 mm, 3 mm long, pressed on both flanks (normals
+/// tilted ±30° out of the radial direction and ±10° round it, as a helix's), the upper flanks
+/// deeper, so the contacts turn the tool about the axis while their forces nearly cancel.
+fn thread_contacts() -> Vec<Contact> {
+    let mut out = Vec::new();
+    for i in 0..72 {
+        for j in 0..6 {
+            let a = std::f64::consts::TAU * i as Real / 72.0;
+            let z = 0.5e-3 * j as Real;
+            let radial = Vec3::new(a.cos(), a.sin(), 0.0);
+            let round = Vec3::new(-a.sin(), a.cos(), 0.0);
+            let upper = j % 2 == 0;
+            let s = if upper { 1.0 } else { -1.0 };
+            let n = (radial + Vec3::z() * (0.58 * s) + round * (0.18 * s)).normalize();
+            let d = if upper { 3e-4 } else { 1e-4 };
+            out.push(contact(radial * 4e-3 + Vec3::z() * z, n, d).with_area(1e-8));
+        }
+    }
+    out
+}
+
+#[test]
+fn torque_pairs_keep_a_threads_torque_about_its_axis() {
+    let thread = thread_contacts();
+    for k in [1, 3, 5] {
+        let mut c = paired(k);
+        let mut reps = ContactSet::new();
+        let stats = c.cluster(&thread, DELTA_M, &mut reps).unwrap();
+        let (f, t) = representatives_wrench(reps.as_slice());
+        let (f0, t0) = contacts_wrench(&thread, stats.clusters);
+        assert!(
+            t0.z.abs() > 0.5 * t0.norm(),
+            "the thread turns the tool: {t0:?}"
+        );
+        assert!((f - f0).norm() <= 1e-9 * f0.norm().max(1e-3 * t0.norm() / 4e-3));
+        assert!(
+            (t - t0).norm() <= 1e-9 * t0.norm(),
+            "k = {k}: {t:?} vs {t0:?}"
+        );
+        let mut one = clusterer(k);
+        let mut single = ContactSet::new();
+        one.cluster(&thread, DELTA_M, &mut single).unwrap();
+        let (_, ts) = representatives_wrench(single.as_slice());
+        println!(
+            "k = {k}: axial torque {:.3e} (pairs {:.3e}, one spring {:.3e})",
+            t0.z, t.z, ts.z
+        );
+        assert!(
+            (ts.z - t0.z).abs() > 0.1 * t0.z.abs(),
+            "k = {k}: one spring kept the torque"
+        );
+    }
+}
+
+proptest! {
+    #![proptest_config(ProptestConfig::with_cases(256))]
+
+    /// With torque pairs, on contacts of a rigid tool at any pose: the force is the contacts'
+    /// whatever the partition, the shares stay within K', every spring's `p_a` is its `r_a`
+    /// placed by the tool's pose, and (one cluster) what the pair adds to one spring's torque is
+    /// a part `t ∈ [0, 1]` of the cluster's couple.
+    #[test]
+    fn torque_pairs_keep_the_force_and_a_part_of_the_couple(
+        contacts in arb_contacts(),
+        areas in prop::collection::vec(1e-7..1e-5f64, 120),
+        k in 1usize..9,
+        axis in prop::array::uniform3(-3.0..3.0f64),
+        shift in prop::array::uniform3(-0.1..0.1f64),
+    ) {
+        let rot = nalgebra::Rotation3::new(Vec3::from(axis));
+        let x = Vec3::from(shift);
+        let contacts: Vec<Contact> = contacts
+            .iter()
+            .zip(&areas)
+            .map(|(c, &a)| Contact { r_a: rot.inverse() * (c.p_a - x), ..c.with_area(a) })
+            .collect();
+        let mut c = paired(k);
+        let mut reps = ContactSet::new();
+        let stats = c.cluster(&contacts, DELTA_M, &mut reps).unwrap();
+        let (f, _) = representatives_wrench(reps.as_slice());
+        let (f0, _) = contacts_wrench(&contacts, stats.clusters);
+        let scale = contacts_wrench(&contacts, 1).0.norm().max(1e-12) + f0.norm();
+        prop_assert!((f - f0).norm() <= 1e-9 * scale, "{f:?} against {f0:?}");
+        let shares: Real = reps.iter().map(|r| r.stiffness_share).sum();
+        prop_assert!(shares <= stats.clusters as Real * (1.0 + 1e-9), "shares add up to {shares}");
+        prop_assert!(reps.len() <= 2 * stats.clusters);
+        for r in reps.iter() {
+            prop_assert!(r.validate().is_ok());
+            prop_assert!((rot * r.r_a + x - r.p_a).norm() <= 1e-12, "{:?} vs {:?}", rot * r.r_a + x, r.p_a);
+        }
+        // One cluster: the pair's torque is one spring's plus t times the couple.
+        let mut one = paired(1);
+        let mut pair = ContactSet::new();
+        one.cluster(&contacts, DELTA_M, &mut pair).unwrap();
+        let (f1, t1) = representatives_wrench(pair.as_slice());
+        let (f0, t0_one) = contacts_wrench(&contacts, 1);
+        let centre = one.cluster_centres()[0].0;
+        let spring = centre.cross(&f0);
+        let couple = t0_one - spring;
+        let added = t1 - spring;
+        let t = added.dot(&couple) / couple.norm_squared().max(1e-300);
+        let size = couple.norm() + 1e-9 * (t0_one.norm() + spring.norm()) + 1e-30;
+        prop_assert!((f1 - f0).norm() <= 1e-9 * scale);
+        prop_assert!((added - couple * t).norm() <= 1e-6 * size, "{added:?} not along {couple:?}");
+        prop_assert!((-1e-6..=1.0 + 1e-6).contains(&t) || couple.norm() < 1e-9 * size, "t = {t}");
+    }
 }

@@ -202,12 +202,12 @@ impl<B: CollisionBackend, C: ContactModel> ContactStage<B, C> {
         update.broad_phase_only = false;
         update.raw_contact_count = self.raw.len();
         update.max_penetration_m = self.raw.max_depth_m().unwrap_or(0.0).max(0.0);
-        self.clusterer.cluster(
+        let clustered = self.clusterer.cluster(
             self.raw.as_slice(),
             self.params.delta_m,
             &mut self.representatives,
         )?;
-        update.cluster_count = self.representatives.len();
+        update.cluster_count = clustered.clusters;
         self.model.linearize(
             &self.body,
             tool,

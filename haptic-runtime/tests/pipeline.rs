@@ -20,9 +20,9 @@ fn spoon_cup() -> Scene {
     Scene::load(&path).unwrap()
 }
 
-/// Runs the spoon-into-cup scene for `seconds` of virtual time; returns the summary and the
-/// final tool state vector.
-fn run_spoon_cup(seconds: f64) -> (Summary, Vec<f64>) {
+/// Runs the spoon-into-cup scene for `seconds` of virtual time; returns the summary, the final
+/// tool state vector and the tool's positions (m) over the last second.
+fn run_spoon_cup(seconds: f64) -> (Summary, Vec<f64>, Vec<Vec3>) {
     let parts = spoon_cup().assemble().unwrap();
     let backend = LodBackend::new(&parts.tool_mesh, &parts.obstacles).unwrap();
     let mut pipeline = PipelineBuilder::new(parts.body, parts.tool_pose)
@@ -37,26 +37,36 @@ fn run_spoon_cup(seconds: f64) -> (Summary, Vec<f64>) {
     let latency = ContactLatency::FixedRate {
         rate_hz: parts.contact_hz.unwrap(),
     };
-    let summary = pipeline.run_virtual(seconds, latency, |_, _| {}).unwrap();
+    let mut last_second = Vec::new();
+    let summary = pipeline
+        .run_virtual(seconds, latency, |t, haptic| {
+            if t >= seconds - 1.0 {
+                last_second.push(haptic.tool().x);
+            }
+        })
+        .unwrap();
     let y = pipeline.haptic().tool().to_vector();
-    (summary, y.iter().copied().collect())
+    (summary, y.iter().copied().collect(), last_second)
 }
 
 #[test]
 fn spoon_pressed_into_cup_is_held_without_deep_penetration() {
     let _one_at_a_time = common::one_at_a_time();
-    let (s, y) = run_spoon_cup(3.0);
+    let (s, _, last_second) = run_spoon_cup(3.0);
     assert_eq!(s.zero_force_steps, 0);
     // The scene's δ covers the spoon's travel between updates.
     assert_eq!(s.late_contact_updates, 0, "{:?}", s.incidents);
-    // Held against the wall: the hand stops at 2 s and presses on; a second later the spoon
-    // creeps along the wall (1.3 cm/s measured) but neither bounces off nor slips away
-    // (y = (x, q, P, L), the spoon weighs 20 g; the hand reached 3.5 cm/s on its way).
-    let speed_m_per_s = Vec3::new(y[7], y[8], y[9]).norm() / 0.02;
-    assert!(
-        speed_m_per_s < 0.03,
-        "the spoon still moves at {speed_m_per_s} m/s"
-    );
+    // Held against the wall: the hand stops at 2 s and presses on; over the next second the
+    // spoon neither bounces off nor slips away. It does jitter along the wall, by about
+    // ±0.45 mm at up to 6 cm/s (frictionless contacts, with one spring per cluster as with
+    // torque pairs), so its speed at one instant says little: its positions over the second
+    // stay within 1 mm of their mean.
+    let mean = last_second.iter().sum::<Vec3>() / last_second.len() as f64;
+    let spread_m = last_second
+        .iter()
+        .map(|x| (x - mean).norm())
+        .fold(0.0, f64::max);
+    assert!(spread_m < 1e-3, "the spoon moved {} mm", spread_m * 1e3);
     assert!(
         s.raw_contact_count_max > 0,
         "the spoon never touched the cup"
@@ -75,8 +85,8 @@ fn spoon_pressed_into_cup_is_held_without_deep_penetration() {
 #[test]
 fn identical_virtual_runs_give_identical_outputs() {
     let _one_at_a_time = common::one_at_a_time();
-    let (a, ya) = run_spoon_cup(1.5);
-    let (b, yb) = run_spoon_cup(1.5);
+    let (a, ya, _) = run_spoon_cup(1.5);
+    let (b, yb, _) = run_spoon_cup(1.5);
     assert_eq!(ya, yb, "final states differ");
     assert_eq!(a.max_force_n.to_bits(), b.max_force_n.to_bits());
     assert_eq!(a.max_penetration_m.to_bits(), b.max_penetration_m.to_bits());

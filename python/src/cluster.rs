@@ -12,8 +12,9 @@ use crate::errors::{Class, error, from_cluster, from_core, from_dynamics};
 use crate::mesh::PyMassProperties;
 use crate::query::PyContacts;
 
-/// Reduces contacts to at most `max_clusters` representatives (weighted k-means, weights
-/// `depth + δ`), warm-started from the previous call's representatives when `warm_start`.
+/// Reduces contacts to at most `max_clusters` clusters (weighted k-means, weights
+/// `area (depth + δ)`), warm-started from the previous call's clusters when `warm_start`, each
+/// written as a torque pair of two springs (`torque_pairs`, the default) or as one.
 #[pyclass(module = "haptic", name = "Clusterer", frozen)]
 pub struct PyClusterer {
     inner: std::sync::Mutex<(Clusterer, ContactSet)>,
@@ -28,17 +29,20 @@ impl PyClusterer {
 #[pymethods]
 impl PyClusterer {
     #[new]
-    #[pyo3(signature = (max_clusters = None, max_iterations = None, warm_start = None))]
+    #[pyo3(signature = (max_clusters = None, max_iterations = None, warm_start = None,
+        torque_pairs = None))]
     fn new(
         max_clusters: Option<usize>,
         max_iterations: Option<usize>,
         warm_start: Option<bool>,
+        torque_pairs: Option<bool>,
     ) -> PyResult<Self> {
         let d = ClusterParams::default();
         let params = ClusterParams {
             max_clusters: max_clusters.unwrap_or(d.max_clusters),
             max_iterations: max_iterations.unwrap_or(d.max_iterations),
             warm_start: warm_start.unwrap_or(d.warm_start),
+            torque_pairs: torque_pairs.unwrap_or(d.torque_pairs),
         };
         let clusterer = Clusterer::new(params).map_err(|e| from_cluster(&e))?;
         Ok(Self {
@@ -67,8 +71,8 @@ impl PyClusterer {
         })
     }
 
-    /// The weight of each representative of the last call (m): the sum of its contacts'
-    /// `depth + δ`.
+    /// The weight of each representative of the last call (m³ with areas, m without): the sum
+    /// of its contacts' `area (depth + δ)`, half each for a torque pair's two springs.
     #[getter]
     fn representative_weights<'py>(&self, py: Python<'py>) -> Bound<'py, PyArray1<f64>> {
         let weights = self.lock().0.representative_weights().to_vec();
@@ -80,10 +84,16 @@ impl PyClusterer {
         self.lock().0.reset();
     }
 
-    /// Most representatives.
+    /// Most clusters (K).
     #[getter]
     fn max_clusters(&self) -> usize {
         self.lock().0.params().max_clusters
+    }
+
+    /// Whether each cluster is written as a torque pair of two springs.
+    #[getter]
+    fn torque_pairs(&self) -> bool {
+        self.lock().0.params().torque_pairs
     }
 }
 

@@ -65,7 +65,8 @@ impl PyScene {
         clusters = 5, error_threshold = 0.0, linearized = true, fixed_frames = true,
         haptic_rate_hz = 1000.0,
         contact_rate_hz = None, waypoints = None, max_force_n = 10.0, max_torque_nm = 1.0,
-        workspace_half_m = 0.5, time_budget_s = None, stopping_rule = "deviation"))]
+        workspace_half_m = 0.5, time_budget_s = None, stopping_rule = "deviation",
+        torque_pairs = true))]
     fn from_parts(
         py: Python<'_>,
         tool: PyRef<'_, PyMesh>,
@@ -92,6 +93,7 @@ impl PyScene {
         workspace_half_m: f64,
         time_budget_s: Option<f64>,
         stopping_rule: &str,
+        torque_pairs: bool,
     ) -> PyResult<Self> {
         let stopping_rule = convert::stopping_rule(stopping_rule, "stopping_rule")?;
         let tool_pose = match tool_pose {
@@ -155,6 +157,7 @@ impl PyScene {
                 damping_ns_per_m: contact_damping_ns_per_m,
                 delta_m,
                 clusters,
+                torque_pairs,
                 error_threshold,
                 linearized,
                 fixed_frames,

@@ -54,7 +54,9 @@ def test_two_patches_give_two_weighted_representatives():
     rng = np.random.default_rng(3)
     points, depths = two_patches(rng, deepest_in_b=True)
     contacts = floor_contacts(points, depths)
-    clusterer = haptic.Clusterer(max_clusters=2)
+    # The paper's model: one spring per cluster at its weighted centroid.
+    clusterer = haptic.Clusterer(max_clusters=2, torque_pairs=False)
+    assert not clusterer.torque_pairs
     reps = clusterer.cluster(contacts, delta=DELTA)
     assert isinstance(reps, haptic.Contacts)
     assert len(reps) == 2
@@ -77,16 +79,22 @@ def test_k_caps_the_representatives_and_few_contacts_give_few():
     rng = np.random.default_rng(4)
     points, depths = two_patches(rng, deepest_in_b=True)
     contacts = floor_contacts(points, depths)
-    five = haptic.Clusterer(max_clusters=5)
+    five = haptic.Clusterer(max_clusters=5, torque_pairs=False)
     assert len(five.cluster(contacts, delta=DELTA)) == 5
     assert five.max_clusters == 5
-    one = haptic.Clusterer(max_clusters=1)
+    # With torque pairs (the default), two springs per cluster.
+    paired = haptic.Clusterer(max_clusters=5)
+    assert paired.torque_pairs
+    assert len(paired.cluster(contacts, delta=DELTA)) == 10
+    one = haptic.Clusterer(max_clusters=1, torque_pairs=False)
     reps = one.cluster(contacts, delta=DELTA)
     assert len(reps) == 1
     centroid, _ = weighted_centroid(points, depths)
     assert np.allclose(reps.p_a[0], centroid, rtol=0, atol=1e-14)
     three = floor_contacts(points[:3], depths[:3])
-    assert len(haptic.Clusterer(max_clusters=5).cluster(three, delta=DELTA)) == 3
+    assert len(haptic.Clusterer(max_clusters=5).cluster(three, delta=DELTA)) == 3, (
+        "a cluster of one contact is one spring"
+    )
     empty = floor_contacts(np.zeros((0, 3)), np.zeros(0))
     assert len(five.cluster(empty, delta=DELTA)) == 0
     assert five.representative_weights.shape == (0,)
@@ -104,13 +112,13 @@ def test_warm_start_keeps_the_order_and_reset_forgets_it():
     depths2 = depths2[order]
     second = floor_contacts(points2, depths2)
 
-    warm = haptic.Clusterer(max_clusters=2, warm_start=True)
+    warm = haptic.Clusterer(max_clusters=2, warm_start=True, torque_pairs=False)
     reps1 = warm.cluster(first, delta=DELTA)
     assert reps1.p_a[0, 0] > 0.05, "a cold start puts the deepest contact's cluster (B) first"
     reps2 = warm.cluster(second, delta=DELTA)
     assert reps2.p_a[0, 0] > 0.05 and reps2.p_a[1, 0] < 0.05, "warm start kept B first"
 
-    cold = haptic.Clusterer(max_clusters=2, warm_start=False)
+    cold = haptic.Clusterer(max_clusters=2, warm_start=False, torque_pairs=False)
     cold.cluster(first, delta=DELTA)
     reps_cold = cold.cluster(second, delta=DELTA)
     assert reps_cold.p_a[0, 0] < 0.05, "without warm start the deepest (A) comes first"
@@ -121,27 +129,36 @@ def test_warm_start_keeps_the_order_and_reset_forgets_it():
     assert np.array_equal(reps_reset.p_a, reps_cold.p_a)
 
 
-def test_shares_keep_the_penalty_whatever_the_partition():
+@pytest.mark.parametrize("torque_pairs", [False, True])
+def test_shares_keep_the_penalty_whatever_the_partition(torque_pairs):
     # Five clusters of the same contacts, cold and warm-started from another frame: different
     # partitions, the same force, K' k_c Σ w g n / W (w = g = d + δ without areas); the shares
-    # add up to at most K' and are 1 for a contact built from arrays.
+    # add up to at most K' and are 1 for a contact built from arrays. With torque pairs the
+    # torque is the contacts' own too.
     rng = np.random.default_rng(7)
     points, depths = two_patches(rng, deepest_in_b=True)
     contacts = floor_contacts(points, depths)
     assert np.array_equal(contacts.stiffness_share, np.ones(len(contacts)))
-    cold = haptic.Clusterer(max_clusters=5).cluster(contacts, delta=DELTA)
-    warm = haptic.Clusterer(max_clusters=5)
+    cold = haptic.Clusterer(max_clusters=5, torque_pairs=torque_pairs).cluster(contacts, delta=DELTA)
+    warm = haptic.Clusterer(max_clusters=5, torque_pairs=torque_pairs)
     warm.cluster(floor_contacts(points[::-1] + [0.02, 0.0, 0.0], depths[::-1]), delta=DELTA)
     other = warm.cluster(contacts, delta=DELTA)
-    assert len(cold) == len(other) == 5
+    springs = 2 if torque_pairs else 1
+    assert len(cold) == len(other) == 5 * springs
     assert not np.allclose(np.sort(cold.p_a[:, 0]), np.sort(other.p_a[:, 0]), rtol=0, atol=1e-6)
     model = haptic.PenaltyModel()
     g = np.maximum(depths + DELTA, 1e-3 * DELTA)
-    expected = 5 * 2000.0 * (g * g).sum() / g.sum() * -DOWN
+    push = 5 * 2000.0 * (g * g)[:, None] / g.sum() * -DOWN
+    expected = push.sum(axis=0)
+    expected_torque = np.cross(points, push).sum(axis=0)
     for reps in (cold, other):
         assert reps.stiffness_share.sum() <= 5 * (1 + 1e-12)
-        f, _ = model.wrench(body(), IDENTITY, reps)
+        f, t = model.wrench(body(), IDENTITY, reps)
         assert np.allclose(f, expected, rtol=1e-9, atol=0)
+        if torque_pairs:
+            assert np.allclose(t, expected_torque, rtol=1e-9, atol=1e-9 * np.abs(expected_torque).max())
+        else:
+            assert not np.allclose(t, expected_torque, rtol=1e-3, atol=0)
 
 
 def test_bad_cluster_parameters():
@@ -165,7 +182,7 @@ def test_large_sets_cluster_the_same_as_small_ones():
     k = 20000
     points = centres[rng.integers(0, 3, size=k)] + rng.normal(scale=1e-3, size=(k, 3)) * [1, 1, 0]
     depths = rng.uniform(0.0, 5e-4, size=k)
-    reps = haptic.Clusterer(max_clusters=3, max_iterations=50).cluster(
+    reps = haptic.Clusterer(max_clusters=3, max_iterations=50, torque_pairs=False).cluster(
         floor_contacts(points, depths), delta=DELTA
     )
     assert len(reps) == 3

@@ -704,14 +704,16 @@ fn a_box_and_its_subdivided_copy_give_the_same_contact_sums() {
 }
 
 /// The "a box and its subdivided copy give the same wrench within 1 % face-on-face",
-/// through the whole contact stage: the contacts at threshold 0, clustered into five
-/// representatives (each with its stiffness share), and the penalty model's wrench at them with
-/// the tool at rest, `(F, T / r)` about the tool's origin. Each tessellation clusters cold from
-/// its own contacts, so the partitions differ; the force does not (to 1e-6), and the torque is
-/// within 1 %. (Without the stiffness shares the force was 23 % off.) Tilted, so that the gap
-/// varies across the face, the force still agrees but the torque may not, by up to about 9 % on
-/// this box: a representative's force weighs its contacts by `g²` (eq. 33 at the weighted mean
-/// depth), while each coarse contact's point is its region's `g`-weighted centroid.
+/// through the whole contact stage: the contacts at threshold 0, clustered into five clusters
+/// (each a torque pair of two springs with their stiffness shares), and the penalty model's
+/// wrench at them with the tool at rest, `(F, T / r)` about the tool's origin. Each
+/// tessellation clusters cold from its own contacts, so the partitions differ; the force does
+/// not (to 1e-6), and the torque is within 1 %. (Without the stiffness shares the force was
+/// 23 % off.) Tilted, so that the gap varies across the face, the force still agrees and the
+/// wrench is within 2 %: the torque pairs keep each cluster's couple (with one spring per
+/// cluster the tilted torque was up to about 9 % off on this box); what is left is that a
+/// coarse contact sits at its region's `g`-weighted centroid while its couple in the clustering
+/// weighs by `g²`.
 #[test]
 fn a_box_and_its_subdivided_copy_give_the_same_clustered_wrench() {
     use haptic_cluster::{ClusterParams, Clusterer};
@@ -719,32 +721,38 @@ fn a_box_and_its_subdivided_copy_give_the_same_clustered_wrench() {
     use haptic_dynamics::{PenaltyModel, PenaltyParams};
 
     let delta = 0.001;
-    // Face on face: the box's bottom 0.2 mm into the floor, turned about the vertical only.
-    let pose = Pose {
+    // Face on face: the box's bottom 0.2 mm into the floor, turned about the vertical; then
+    // tilted by 0.5° about x, so the gap varies by 0.26 mm across the face.
+    let flat = Pose {
         position: Vec3::new(0.006, -0.004, 0.01 + 0.01 - 0.0002),
         orientation: UnitQuaternion::from_scaled_axis(Vector3::new(0.0, 0.0, 0.2)),
     };
+    let tilted = Pose {
+        orientation: UnitQuaternion::from_scaled_axis(Vector3::new(0.5f64.to_radians(), 0.0, 0.0))
+            * flat.orientation,
+        ..flat
+    };
     let lever = 0.027;
-    let wrench = |k_tool: usize, k_floor: usize| {
+    let wrench = |pose: &Pose, k_tool: usize, k_floor: usize| {
         let tool = grid_box(Vec3::new(0.02, 0.015, 0.01), k_tool);
         let floor = grid_box(Vec3::new(0.04, 0.03, 0.01), k_floor);
         let mut lod = LodBackend::new(&tool, &[(floor, Pose::identity())]).unwrap();
         let mut contacts = ContactSet::new();
-        lod.query(&pose, &QueryParams::new(delta, 0.0).unwrap(), &mut contacts)
+        lod.query(pose, &QueryParams::new(delta, 0.0).unwrap(), &mut contacts)
             .unwrap();
         let mut reps = ContactSet::new();
-        Clusterer::new(ClusterParams::default())
+        let stats = Clusterer::new(ClusterParams::default())
             .unwrap()
             .cluster(contacts.as_slice(), delta, &mut reps)
             .unwrap();
         assert_eq!(
-            reps.len(),
-            5,
+            (stats.clusters, reps.len()),
+            (5, 10),
             "{k_tool}×{k_floor}: {} contacts",
             contacts.len()
         );
         let body = RigidBody::sphere(0.05, lever).unwrap();
-        let y = ToolState::at_rest(&pose).to_vector();
+        let y = ToolState::at_rest(pose).to_vector();
         let w = PenaltyModel::new(PenaltyParams::new(2000.0, 0.0, delta).unwrap())
             .unwrap()
             .evaluate(
@@ -759,19 +767,25 @@ fn a_box_and_its_subdivided_copy_give_the_same_clustered_wrench() {
         [w.force.x, w.force.y, w.force.z, t.x, t.y, t.z]
     };
     let norm = |v: &[Real; 6]| v.iter().map(|x| x * x).sum::<Real>().sqrt();
-    let coarse = wrench(1, 1);
-    assert!(norm(&coarse) > 0.0);
-    for (kt, kf) in [(4, 1), (1, 5), (4, 5), (8, 8)] {
-        let fine = wrench(kt, kf);
-        let diff: [Real; 6] = std::array::from_fn(|i| fine[i] - coarse[i]);
-        let force = (0..3).map(|i| diff[i] * diff[i]).sum::<Real>().sqrt();
-        let f0 = (0..3).map(|i| coarse[i] * coarse[i]).sum::<Real>().sqrt();
-        assert!(force <= 1e-6 * f0, "{kt}×{kf}: force off by {}", force / f0);
-        assert!(
-            norm(&diff) <= 0.01 * norm(&coarse),
-            "{kt}×{kf}: wrench off by {}",
-            norm(&diff) / norm(&coarse)
-        );
+    for (name, pose, tolerance) in [("flat", &flat, 0.01), ("tilted", &tilted, 0.02)] {
+        let coarse = wrench(pose, 1, 1);
+        assert!(norm(&coarse) > 0.0);
+        for (kt, kf) in [(4, 1), (1, 5), (4, 5), (8, 8)] {
+            let fine = wrench(pose, kt, kf);
+            let diff: [Real; 6] = std::array::from_fn(|i| fine[i] - coarse[i]);
+            let force = (0..3).map(|i| diff[i] * diff[i]).sum::<Real>().sqrt();
+            let f0 = (0..3).map(|i| coarse[i] * coarse[i]).sum::<Real>().sqrt();
+            assert!(
+                force <= 1e-6 * f0,
+                "{name} {kt}×{kf}: force off by {}",
+                force / f0
+            );
+            assert!(
+                norm(&diff) <= tolerance * norm(&coarse),
+                "{name} {kt}×{kf}: wrench off by {}",
+                norm(&diff) / norm(&coarse)
+            );
+        }
     }
 }
 

@@ -143,12 +143,15 @@ impl<I: Integrator, B: CollisionBackend, C: ContactModel, D: Device> PipelineBui
             jacobian_kind: haptic_core::Integrator::jacobian_kind(&self.integrator),
             gravity: config.gravity,
         };
-        if config.cluster.max_clusters > haptic_core::MAX_REPRESENTATIVES {
+        if config.cluster.max_representatives() > haptic_core::MAX_REPRESENTATIVES {
             return Err(RuntimeError::config(
                 "cluster",
                 format!(
-                    "max_clusters {} is more than a linearized contact model holds ({})",
+                    "max_clusters {} gives up to {} representatives (torque pairs: {}), more \
+                     than a linearized contact model holds ({})",
                     config.cluster.max_clusters,
+                    config.cluster.max_representatives(),
+                    config.cluster.torque_pairs,
                     haptic_core::MAX_REPRESENTATIVES
                 ),
             ));

@@ -143,6 +143,7 @@ impl Scene {
             query,
             cluster: haptic_cluster::ClusterParams {
                 max_clusters: self.contact.clusters,
+                torque_pairs: self.contact.torque_pairs,
                 ..Default::default()
             },
             linearization: self.contact.linearization(),

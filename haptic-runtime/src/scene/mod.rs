@@ -20,6 +20,7 @@
 //! stiffness_n_per_m = 2000.0
 //! delta_m = 0.001
 //! clusters = 5
+//! torque_pairs = true        # two springs per cluster that keep its torque (false: one)
 //! error_threshold = 0.0
 //! linearized = true
 //! fixed_frames = true

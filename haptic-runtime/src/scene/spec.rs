@@ -151,8 +151,13 @@ pub struct ContactSpec {
     pub damping_ns_per_m: Option<Real>,
     /// Distance tolerance δ (pre-contact), m.
     pub delta_m: Real,
-    /// K, the most clusters: 1 to [`haptic_core::MAX_REPRESENTATIVES`].
+    /// K, the most clusters: 1 to [`haptic_core::MAX_REPRESENTATIVES`], or to half that with
+    /// `torque_pairs`.
     pub clusters: usize,
+    /// Write each cluster as a torque pair of two springs that keep its contacts' torque as
+    /// well as their force (true, the default), or as one spring (false: the paper's model).
+    /// See `haptic_cluster::ClusterParams::torque_pairs`.
+    pub torque_pairs: bool,
     /// Error threshold of the multiresolution collision detection (fraction of the radius).
     pub error_threshold: Real,
     /// A contact model that follows the tool between updates (true) or forces held constant
@@ -187,6 +192,7 @@ impl Default for ContactSpec {
             damping_ns_per_m: None,
             delta_m: 1e-3,
             clusters: 5,
+            torque_pairs: true,
             error_threshold: 0.0,
             linearized: true,
             fixed_frames: true,
@@ -378,12 +384,14 @@ impl Scene {
         positive("contact.stiffness_n_per_m", self.contact.stiffness_n_per_m)?;
         non_negative_opt("contact.damping_ns_per_m", self.contact.damping_ns_per_m)?;
         positive("contact.delta_m", self.contact.delta_m)?;
-        if !(1..=haptic_core::MAX_REPRESENTATIVES).contains(&self.contact.clusters) {
+        let springs = if self.contact.torque_pairs { 2 } else { 1 };
+        let most = haptic_core::MAX_REPRESENTATIVES / springs;
+        if !(1..=most).contains(&self.contact.clusters) {
             return Err(invalid(
                 "contact.clusters",
                 format!(
-                    "must be 1 to {} (the representatives a linearized contact model holds), got {}",
-                    haptic_core::MAX_REPRESENTATIVES,
+                    "must be 1 to {most} (the representatives a linearized contact model holds, \
+                     {springs} per cluster), got {}",
                     self.contact.clusters
                 ),
             ));

@@ -16,6 +16,7 @@ fn minimal_scene_takes_defaults_and_resolves_paths() {
     let s = Scene::from_toml_str(MINIMAL, &base).unwrap();
     assert_eq!(s.tool.mesh, base.join("tool.stl"));
     assert_eq!(s.contact.clusters, 5);
+    assert!(s.contact.torque_pairs);
     assert_eq!(s.rates.haptic_hz, 1000.0);
 }
 
@@ -91,6 +92,15 @@ fn out_of_range_values_name_their_field() {
         ),
         (
             "[tool]\nmesh = \"a\"\nmass_kg = 1.0\n[contact]\nclusters = 17\n",
+            "contact.clusters",
+        ),
+        // Torque pairs (the default) write two springs per cluster: at most 8 clusters.
+        (
+            "[tool]\nmesh = \"a\"\nmass_kg = 1.0\n[contact]\nclusters = 9\n",
+            "contact.clusters",
+        ),
+        (
+            "[tool]\nmesh = \"a\"\nmass_kg = 1.0\n[contact]\nclusters = 17\ntorque_pairs = false\n",
             "contact.clusters",
         ),
         (

@@ -369,16 +369,22 @@ class ParryBackend:
 class Clusterer:
     """k-means contact clustering with temporal coherence (eqs. 28–32).
 
-    Contacts are weighted by ``w = depth + delta`` (floored at ``1e-3 delta``). A representative
-    sits at its cluster's weighted centroid; its ``r_a`` is the weighted mean, its normal the
-    normalised weighted sum, its depth the weighted mean. With ``warm_start`` each call is
-    seeded from the previous call's representatives, so cluster identities (their order) persist
-    from call to call; a cold start seeds the deepest contact first.
+    Contacts are weighted by ``w = area (depth + delta)`` (the depth term floored at
+    ``1e-3 delta``; ``area`` 1 unless every contact has one). A cluster's centroid is the
+    weighted mean of its contacts' points, its depth their weighted mean, and its penalty
+    ``Σ w (depth + delta) n`` is shared out by stiffness shares (``Contacts.stiffness_share``)
+    so that the clustered force is the contacts' own whatever the partition. With
+    ``torque_pairs`` (the default) each cluster is written as two springs either side of its
+    centroid that keep its contacts' torque as well; otherwise as one spring at the centroid
+    (the paper's model). With ``warm_start`` each call is seeded from the previous call's
+    clusters, so their identities (their order) persist from call to call; a cold start seeds
+    the deepest contact first.
 
     Args:
-        max_clusters: K, the most representatives (default 5).
+        max_clusters: K, the most clusters (default 5).
         max_iterations: cap on Lloyd iterations per call (default 16).
         warm_start: seed from the previous call (default True).
+        torque_pairs: two springs per cluster that keep its torque (default True), or one.
 
     Raises:
         ClusterError: ``max_clusters`` or ``max_iterations`` of 0 (``.field`` names it).
@@ -389,22 +395,27 @@ class Clusterer:
         max_clusters: int | None = None,
         max_iterations: int | None = None,
         warm_start: bool | None = None,
+        torque_pairs: bool | None = None,
     ) -> None: ...
     def cluster(self, contacts: Contacts, delta: float) -> Contacts:
-        """The representatives (at most ``max_clusters``) of ``contacts`` queried with distance
-        tolerance ``delta`` (m). An empty input gives no representative and forgets the
-        history. The GIL is released while clustering.
+        """The representatives (at most ``max_clusters``, twice that with ``torque_pairs``) of
+        ``contacts`` queried with distance tolerance ``delta`` (m). An empty input gives no
+        representative and forgets the history. The GIL is released while clustering.
 
         Raises:
             ClusterError: ``delta`` not positive and finite (``.field == "delta"``).
         """
     @property
     def representative_weights(self) -> NDArray[np.float64]:
-        """Each representative's weight of the last call (m), in order: the sum of its
-        contacts' ``depth + delta``."""
+        """Each representative's weight of the last call (m³ with areas, m without), in order:
+        the sum of its contacts' ``area (depth + delta)``, half each for a torque pair's two
+        springs."""
     @property
     def max_clusters(self) -> int:
         """K."""
+    @property
+    def torque_pairs(self) -> bool:
+        """Whether each cluster is written as a torque pair of two springs."""
     def reset(self) -> None:
         """Forgets the previous representatives: the next call cold-starts."""
 
@@ -512,6 +523,7 @@ class Scene:
         workspace_half_m: float = 0.5,
         time_budget_s: float | None = None,
         stopping_rule: Literal["deviation", "coherence"] = "deviation",
+        torque_pairs: bool = True,
     ) -> Scene:
         """A scene from meshes and parameters: the fields of a scene file, with the same
         defaults, all by keyword.
@@ -527,7 +539,8 @@ class Scene:
             angular_stiffness_nm_per_rad, angular_damping_nms_per_rad: its angular ones.
             contact_stiffness_n_per_m, contact_damping_ns_per_m: the penalty model's.
             delta_m: the distance tolerance (pre-contact) of queries and penalty.
-            clusters: K, the most representatives (1 to the linearized model's capacity).
+            clusters: K, the most clusters (1 to the linearized model's capacity, 16, or half
+                that with ``torque_pairs``).
             error_threshold: the multiresolution error threshold (fraction of the tool's
                 bounding radius).
             linearized: a contact model that follows the tool between updates (True) or
@@ -549,6 +562,9 @@ class Scene:
             stopping_rule: where the LOD back-end may stop at coarse pieces, as
                 :class:`LodBackend`'s ``stopping_rule`` (``"deviation"``, the paper's, or
                 ``"coherence"``).
+            torque_pairs: each cluster written as two springs that keep its contacts' torque
+                as well as their force (True), or as one spring (False, the paper's model);
+                as :class:`Clusterer`'s ``torque_pairs``.
 
         Raises:
             InputError: a bad pose or array, an unknown ``stopping_rule``.

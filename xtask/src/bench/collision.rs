@@ -44,8 +44,8 @@ use anyhow::{Context, bail};
 use haptic_cluster::{ClusterParams, Clusterer};
 use haptic_collision::{LoadOptions, LodBackend, ParryBackend, TriMesh};
 use haptic_core::{
-    CollisionBackend, Contact, ContactModel, ContactSet, Kinematics, Pose, QueryParams, Real,
-    RigidBody, ToolState, Vec3,
+    CollisionBackend, ContactModel, ContactSet, Kinematics, Pose, QueryParams, Real, RigidBody,
+    ToolState, Vec3,
 };
 use haptic_dynamics::penalty::{PenaltyModel, PenaltyParams};
 use nalgebra::UnitQuaternion;
@@ -277,8 +277,9 @@ pub(super) struct RunResult {
     node_pairs_mean: Real,
     /// The wrench of each pose `(F, T)` (first pass).
     pub wrenches: Vec<[Real; 6]>,
-    /// The representatives of each pose (first pass), which seed the other runs' clustering.
-    representatives: Vec<Vec<Contact>>,
+    /// The clusters' centres and depths of each pose (first pass), which seed the other runs'
+    /// clustering.
+    cluster_centres: Vec<Vec<(Vec3, Real)>>,
     /// Error per pose, clustered from the reference's representatives of the same pose.
     errors: Vec<Real>,
     /// Error per pose, clustered along this run's own chain of warm starts.
@@ -411,7 +412,7 @@ where
     let mut times_s = Vec::with_capacity(passes * scene.poses.len());
     let mut wrenches = Vec::with_capacity(scene.poses.len());
     let mut chained_wrenches = Vec::with_capacity(scene.poses.len());
-    let mut representatives = Vec::with_capacity(scene.poses.len());
+    let mut cluster_centres = Vec::with_capacity(scene.poses.len());
     // Two clusterers: one seeded from the reference's representatives of the same pose (the
     // headline error), one along this run's own chain of warm starts, as a runtime would run.
     let mut seeded = WrenchPipeline::new(scene, radius)?;
@@ -434,23 +435,25 @@ where
             raw_contacts_max = raw_contacts_max.max((st.raw_contacts as usize).max(out.len()));
             node_pairs += st.node_pairs_tested;
             integrated.push(integrated_wrench(out.as_slice(), pose, scene.delta_m));
-            let (w, reps) = chained.wrench(&out, pose, scene.delta_m)?;
+            let w = chained.wrench(&out, pose, scene.delta_m)?;
             chained_wrenches.push(w);
             match reference {
                 Some(r) => {
-                    seeded.clusterer.warm_start_from(&r.representatives[i]);
-                    wrenches.push(seeded.wrench(&out, pose, scene.delta_m)?.0);
+                    seeded
+                        .clusterer
+                        .warm_start_from_centres(&r.cluster_centres[i]);
+                    wrenches.push(seeded.wrench(&out, pose, scene.delta_m)?);
                 }
                 None => {
                     // The reference: its own contacts clustered cold, to measure how far two
                     // clusterings of the same contacts can differ.
                     seeded.clusterer.reset();
-                    let cold = seeded.wrench(&out, pose, scene.delta_m)?.0;
+                    let cold = seeded.wrench(&out, pose, scene.delta_m)?;
                     cold_errors.extend(relative_error(&cold, &w, radius));
                     wrenches.push(w);
                 }
             }
-            representatives.push(reps);
+            cluster_centres.push(chained.clusterer.cluster_centres().to_vec());
         }
     }
     let n = scene.poses.len().max(1) as Real;
@@ -491,7 +494,7 @@ where
         errors_chained: errors_against(&chained_wrenches)?,
         cold_errors,
         wrenches,
-        representatives,
+        cluster_centres,
     })
 }
 
@@ -525,7 +528,7 @@ impl WrenchPipeline {
         contacts: &ContactSet,
         pose: &Pose,
         delta: Real,
-    ) -> anyhow::Result<([Real; 6], Vec<Contact>)> {
+    ) -> anyhow::Result<[Real; 6]> {
         self.clusterer
             .cluster(contacts.as_slice(), delta, &mut self.reps)?;
         let y = ToolState::at_rest(pose).to_vector();
@@ -533,12 +536,9 @@ impl WrenchPipeline {
         let w = self
             .model
             .evaluate(&self.body, &y, &kin, self.reps.as_slice(), None)?;
-        Ok((
-            [
-                w.force.x, w.force.y, w.force.z, w.torque.x, w.torque.y, w.torque.z,
-            ],
-            self.reps.as_slice().to_vec(),
-        ))
+        Ok([
+            w.force.x, w.force.y, w.force.z, w.torque.x, w.torque.y, w.torque.z,
+        ])
     }
 }
 

@@ -305,6 +305,7 @@ pub fn run(args: &crate::OutArgs) -> anyhow::Result<()> {
             coupling_stiffness_n_per_m: base.coupling.stiffness_n_per_m,
             contact_stiffness_n_per_m: base.penalty.stiffness_n_per_m,
             clusters: base.config.cluster.max_clusters,
+            torque_pairs: base.config.cluster.torque_pairs,
             latency: "measured cost of each query times latency_scale, at least 1 ms",
             latency_scale,
             median_query_cost_0_4_s: median_cost_s,
@@ -373,6 +374,8 @@ struct JawsReport {
     coupling_stiffness_n_per_m: Real,
     contact_stiffness_n_per_m: Real,
     clusters: usize,
+    /// Each cluster written as a torque pair of two springs.
+    torque_pairs: bool,
     latency: &'static str,
     latency_scale: Real,
     median_query_cost_0_4_s: Real,
