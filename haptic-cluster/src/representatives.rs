@@ -47,13 +47,14 @@ pub(crate) struct Accumulator {
     pub d: Real,
     pub area_m2: Real,
     pub deepest: usize,
-    /// Torque pairs only, about the local origin `o` (the cluster's final centroid): `Σ (p_i − o)
-    /// × u_i`, `Σ w_i (p_i − o)(p_i − o)ᵀ` and `Σ w_i (r_i − ρ)(p_i − o)ᵀ` (`ρ` the first
-    /// contact's `r_a`).
+    /// Torque pairs only, about the local origin `o` (the cluster's final centroid from Lloyd's
+    /// iterations): `Σ (p_i − o) × u_i` and `Σ w_i (p_i − o)(p_i − o)ᵀ` (xx, yy, zz, xy, xz,
+    /// yz).
     pub moment: Vec3,
-    pub second: Mat3,
-    pub cross: Mat3,
-    pub body_origin: Vec3,
+    pub second: [Real; 6],
+    /// The cluster's torque pair, and its offset in the body frame (summed in a second pass).
+    pub pair: Option<TorquePair>,
+    pub offset_body: Vec3,
 }
 
 impl Default for Accumulator {
@@ -69,9 +70,9 @@ impl Default for Accumulator {
             area_m2: 0.0,
             deepest: usize::MAX,
             moment: Vec3::zeros(),
-            second: Mat3::zeros(),
-            cross: Mat3::zeros(),
-            body_origin: Vec3::zeros(),
+            second: [0.0; 6],
+            pair: None,
+            offset_body: Vec3::zeros(),
         }
     }
 }
@@ -81,87 +82,113 @@ impl Default for Accumulator {
 pub(crate) struct TorquePair {
     /// `h`: the springs sit at `c ± h` (world, m).
     pub offset: Vec3,
-    /// The same offset in the tool's body frame (m): the springs' `r_a` are `r̄ ± offset_body`.
-    pub offset_body: Vec3,
+    /// `v / √(vᵀ C v)` (1/m): `h = C v / √(vᵀ C v)` is the weighted mean of `(p_i − c)` times
+    /// `(p_i − c) · spread`, and the same mean of `(r_i − r̄)` is `h` in the body frame.
+    pub spread: Vec3,
     /// `G`: the springs push with `P/2 ± G` (penalty units, as `P`).
     pub tilt: Vec3,
 }
 
 /// The torque pair of a cluster with penalty `p` (`P`), couple `m` (`M` about the centroid),
-/// weighted covariance `c` (`C`, m²), body-world cross-covariance `x` (`Σ w (r_i − r̄)(p_i −
-/// c)ᵀ / W_k`, m²) and unsigned penalty `unsigned` (`Σ w g s`); `None` when the contacts have
-/// no spread (one point).
-pub(crate) fn torque_pair(
-    p: &Vec3,
-    m: &Vec3,
-    c: &Mat3,
-    x: &Mat3,
-    unsigned: Real,
-) -> Option<TorquePair> {
+/// weighted covariance `c` (`C`, m²) and unsigned penalty `unsigned` (`Σ w g s`); `None` when
+/// the contacts have no spread where the offset must lie.
+pub(crate) fn torque_pair(p: &Vec3, m: &Vec3, c: &Mat3, unsigned: Real) -> Option<TorquePair> {
     let trace = c.trace();
     // Not positive, or NaN: no spread.
     if trace.is_nan() || trace <= 0.0 {
         return None;
     }
-    // The plane the springs' offset must lie in: ⊥ C M (then h = C v ⊥ M).
-    let cm = c * m;
-    let normal = cm.try_normalize(1e-12 * trace * m.norm());
-    let project = |v: Vec3| match normal {
-        Some(u) => v - u * u.dot(&v),
-        None => v,
+    // The direction of largest spread ⊥ C M (then h = C v ⊥ M).
+    let v = match (c * m).try_normalize(1e-12 * trace * m.norm()) {
+        Some(u) => widest_across(c, &u),
+        None => widest(c, trace)?,
     };
-    // The direction of largest spread in that plane: power iteration on the projected C, from
-    // its largest column (none: the contacts do not spread in that plane).
-    let v = (0..3)
-        .map(|i| project(c.column(i).into_owned()))
-        .max_by(|a, b| a.norm_squared().total_cmp(&b.norm_squared()))?;
-    let mut v = v.try_normalize(1e-9 * trace)?;
-    for _ in 0..8 {
-        match project(c * v).try_normalize(1e-12 * trace) {
-            Some(next) => v = next,
-            None => break,
-        }
-    }
     let spread_sq = v.dot(&(c * v));
     if spread_sq.is_nan() || spread_sq <= 1e-12 * trace {
         return None;
     }
     let scale = spread_sq.sqrt().recip();
     let offset = (c * v) * scale;
-    let offset_body = (x * v) * scale;
     // h × G = M/2 with G ⊥ h: G = (M × h) / (2 |h|²); the part of M along h (none, up to
     // rounding) is left out.
     let full = m.cross(&offset) / (2.0 * offset.norm_squared());
     let half = p * 0.5;
     let size = |t: Real| (half + full * t).norm() + (half - full * t).norm();
     // The springs' shares within the cluster's bound: the largest t ∈ [0, 1] that fits (the
-    // size is convex in t and fits at 0, where it is |P| ≤ Σ w g s).
-    let t = if size(1.0) <= unsigned {
+    // size is convex in t and fits at 0, where it is |P| ≤ Σ w g s). Springs whose forces are
+    // parallel (a flat face) fit to rounding, hence the tolerance.
+    let fits = |t: Real| size(t) <= unsigned * (1.0 + 1e-12);
+    let t = if fits(1.0) {
         1.0
     } else {
-        let (mut lo, mut hi) = (0.0, 1.0);
-        for _ in 0..40 {
-            let mid = 0.5 * (lo + hi);
-            if size(mid) <= unsigned {
-                lo = mid;
-            } else {
-                hi = mid;
+        // size(t) = U solved in closed form: with a = P/2, b = G and U² ≥ 4|a|²,
+        // t² = U² (U²/4 − |a|²) / (U² |b|² − 4 (a·b)²).
+        let (aa, bb, ab) = (half.norm_squared(), full.norm_squared(), half.dot(&full));
+        let u2 = unsigned * unsigned;
+        let den = u2 * bb - 4.0 * ab * ab;
+        let mut t = if den > 0.0 {
+            ((u2 * (0.25 * u2 - aa)).max(0.0) / den).sqrt().min(1.0)
+        } else {
+            0.0
+        };
+        // Rounding: step back until it fits (0 always does).
+        for _ in 0..8 {
+            if fits(t) {
+                break;
             }
+            t *= 1.0 - 1e-9;
         }
-        lo
+        if fits(t) { t } else { 0.0 }
     };
     Some(TorquePair {
         offset,
-        offset_body,
+        spread: v * scale,
         tilt: full * t,
     })
+}
+
+/// The unit direction `v ⊥ u` of largest `vᵀ C v` (`u` unit): the larger eigenvector of `C` on
+/// the plane across `u`, in closed form.
+fn widest_across(c: &Mat3, u: &Vec3) -> Vec3 {
+    // An orthonormal basis of the plane: across u from its smallest axis.
+    let axis = u.iamin();
+    let e1 = u.cross(&Vec3::ith(axis, 1.0)).normalize();
+    let e2 = u.cross(&e1);
+    let (c1, c2) = (c * e1, c * e2);
+    let (b11, b22, b12) = (e1.dot(&c1), e2.dot(&c2), e1.dot(&c2));
+    let half_gap = 0.5 * (b11 - b22);
+    let lambda = 0.5 * (b11 + b22) + half_gap.hypot(b12);
+    // (λ − b22, b12) and (b12, λ − b11) are both eigenvectors; the longer is the better
+    // conditioned.
+    let (a, b) = if lambda - b22 >= lambda - b11 {
+        (lambda - b22, b12)
+    } else {
+        (b12, lambda - b11)
+    };
+    (e1 * a + e2 * b).try_normalize(0.0).unwrap_or(e1)
+}
+
+/// The unit direction of largest `vᵀ C v`: power iteration from `C`'s largest column; `None`
+/// when `C` vanishes.
+fn widest(c: &Mat3, trace: Real) -> Option<Vec3> {
+    let v = (0..3)
+        .map(|i| c.column(i).into_owned())
+        .max_by(|a, b| a.norm_squared().total_cmp(&b.norm_squared()))?;
+    let mut v = v.try_normalize(1e-9 * trace)?;
+    for _ in 0..8 {
+        match (c * v).try_normalize(1e-12 * trace) {
+            Some(next) => v = next,
+            None => break,
+        }
+    }
+    Some(v)
 }
 
 impl Clusterer {
     /// The representatives of the final clusters (eqs. 30–32 and the shares of the crate docs;
     /// a torque pair per cluster when asked for, the module docs), in one pass over the
-    /// contacts; the clusters' centroids and depths become the next call's history. Returns the
-    /// cost `E` (eq. 28) of the final assignment and centroids.
+    /// contacts (two with torque pairs); the clusters' centroids and depths become the next
+    /// call's history. Returns the cost `E` (eq. 28) of the final assignment and centroids.
     pub(crate) fn write_representatives(
         &mut self,
         contacts: &[Contact],
@@ -181,7 +208,8 @@ impl Clusterer {
         {
             let origin = self.centroids[a as usize];
             let acc = &mut self.acc[a as usize];
-            acc.cost += w * (c.p_a - origin).norm_squared();
+            let off = c.p_a - origin;
+            acc.cost += w * off.norm_squared();
             acc.w += w;
             acc.p_a += c.p_a * w;
             acc.r_a += c.r_a * w;
@@ -190,23 +218,51 @@ impl Clusterer {
             acc.unsigned += push;
             acc.d += c.depth_m * w;
             acc.area_m2 += c.area_m2;
-            if acc.deepest == usize::MAX {
-                acc.body_origin = c.r_a;
-            }
             if acc.deepest == usize::MAX || c.depth_m > contacts[acc.deepest].depth_m {
                 acc.deepest = i;
             }
             if pairs {
-                let off = c.p_a - origin;
                 acc.moment += off.cross(&c.n) * push;
-                acc.second += off * off.transpose() * w;
-                acc.cross += (c.r_a - acc.body_origin) * off.transpose() * w;
+                let wo = off * w;
+                let q = &mut acc.second;
+                q[0] += wo.x * off.x;
+                q[1] += wo.y * off.y;
+                q[2] += wo.z * off.z;
+                q[3] += wo.x * off.y;
+                q[4] += wo.x * off.z;
+                q[5] += wo.y * off.z;
             }
             total_w += w;
         }
+        if pairs {
+            for (acc, origin) in self.acc.iter_mut().zip(&self.centroids) {
+                if acc.deepest == usize::MAX {
+                    continue;
+                }
+                // The sums about the local origin, moved to the centroid.
+                let shift = acc.p_a / acc.w - origin;
+                let couple = acc.moment - shift.cross(&acc.penalty);
+                let q = acc.second.map(|x| x / acc.w);
+                let cov = Mat3::new(
+                    q[0], q[3], q[4], //
+                    q[3], q[1], q[5], //
+                    q[4], q[5], q[2],
+                ) - shift * shift.transpose();
+                acc.pair = torque_pair(&acc.penalty, &couple, &cov, acc.unsigned);
+            }
+            // The offsets in the body frame: Σ w ((p − c) · spread) (r − r̄) / W over each
+            // cluster, as h is over (p − c).
+            for ((c, &a), &w) in contacts.iter().zip(&self.assign).zip(&self.weights) {
+                let acc = &mut self.acc[a as usize];
+                if let Some(pair) = &acc.pair {
+                    let along = (c.p_a - acc.p_a / acc.w).dot(&pair.spread);
+                    acc.offset_body += (c.r_a - acc.r_a / acc.w) * (w * along);
+                }
+            }
+        }
         let written = self.acc.iter().filter(|a| a.deepest != usize::MAX).count() as Real;
         self.previous.clear();
-        for (acc, origin) in self.acc.iter().zip(&self.centroids) {
+        for acc in &self.acc {
             if acc.deepest == usize::MAX {
                 continue;
             }
@@ -233,33 +289,14 @@ impl Clusterer {
                     stiffness_share: share_of(&f),
                 });
             };
-            let pair = if pairs {
-                // The sums about the local origin, moved to the centroid.
-                let shift = p_a - origin;
-                let couple = acc.moment - shift.cross(&acc.penalty);
-                let cov = acc.second / acc.w - shift * shift.transpose();
-                let cross = acc.cross / acc.w - (r_a - acc.body_origin) * shift.transpose();
-                torque_pair(&acc.penalty, &couple, &cov, &cross, acc.unsigned)
-            } else {
-                None
-            };
-            match pair {
+            match acc.pair {
                 Some(pair) => {
                     let half = acc.penalty * 0.5;
+                    let offset_body = acc.offset_body / acc.w;
                     self.representative_weights.push(0.5 * acc.w);
                     self.representative_weights.push(0.5 * acc.w);
-                    spring(
-                        p_a + pair.offset,
-                        r_a + pair.offset_body,
-                        half + pair.tilt,
-                        out,
-                    );
-                    spring(
-                        p_a - pair.offset,
-                        r_a - pair.offset_body,
-                        half - pair.tilt,
-                        out,
-                    );
+                    spring(p_a + pair.offset, r_a + offset_body, half + pair.tilt, out);
+                    spring(p_a - pair.offset, r_a - offset_body, half - pair.tilt, out);
                 }
                 None => {
                     self.representative_weights.push(acc.w);
@@ -296,7 +333,7 @@ mod tests {
             let a = Mat3::from_columns(&a);
             let c = a * a.transpose() * 1e-4;
             let unsigned = p.norm() * room + 1e-12;
-            let Some(pair) = torque_pair(&p, &(m * 1e-2), &c, &c, unsigned) else {
+            let Some(pair) = torque_pair(&p, &(m * 1e-2), &c, unsigned) else {
                 // Only when the contacts do not spread.
                 prop_assert!(c.trace() < 1e-12);
                 return Ok(());
@@ -325,7 +362,7 @@ mod tests {
     #[test]
     fn contacts_at_one_point_make_no_pair() {
         let p = Vec3::new(0.0, 0.0, 1.0);
-        assert!(torque_pair(&p, &Vec3::zeros(), &Mat3::zeros(), &Mat3::zeros(), 1.0).is_none());
+        assert!(torque_pair(&p, &Vec3::zeros(), &Mat3::zeros(), 1.0).is_none());
     }
 
     /// Contacts spread along one line only, with a couple across it: the offset lies along the
@@ -335,7 +372,7 @@ mod tests {
         let c = Mat3::new(4e-6, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0);
         let p = Vec3::new(0.0, 0.0, 2.0);
         let m = Vec3::new(0.0, 1e-3, 0.0);
-        let pair = torque_pair(&p, &m, &c, &c, 10.0).unwrap();
+        let pair = torque_pair(&p, &m, &c, 10.0).unwrap();
         assert!((pair.offset - Vec3::new(2e-3, 0.0, 0.0)).norm() < 1e-15);
         let couple = 2.0 * pair.offset.cross(&pair.tilt);
         assert!((couple - m).norm() < 1e-15, "{couple:?}");
