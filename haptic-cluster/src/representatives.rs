@@ -52,8 +52,11 @@ pub(crate) struct Accumulator {
     /// yz).
     pub moment: Vec3,
     pub second: [Real; 6],
-    /// The cluster's torque pair, and its offset in the body frame (summed in a second pass).
+    /// The cluster's torque pair, its centroid and mean `r_a` (for the second pass), and its
+    /// offset in the body frame (summed in the second pass).
     pub pair: Option<TorquePair>,
+    pub centre: Vec3,
+    pub body_centre: Vec3,
     pub offset_body: Vec3,
 }
 
@@ -72,6 +75,8 @@ impl Default for Accumulator {
             moment: Vec3::zeros(),
             second: [0.0; 6],
             pair: None,
+            centre: Vec3::zeros(),
+            body_centre: Vec3::zeros(),
             offset_body: Vec3::zeros(),
         }
     }
@@ -103,12 +108,13 @@ pub(crate) fn torque_pair(p: &Vec3, m: &Vec3, c: &Mat3, unsigned: Real) -> Optio
         Some(u) => widest_across(c, &u),
         None => widest(c, trace)?,
     };
-    let spread_sq = v.dot(&(c * v));
+    let cv = c * v;
+    let spread_sq = v.dot(&cv);
     if spread_sq.is_nan() || spread_sq <= 1e-12 * trace {
         return None;
     }
     let scale = spread_sq.sqrt().recip();
-    let offset = (c * v) * scale;
+    let offset = cv * scale;
     // h × G = M/2 with G ⊥ h: G = (M × h) / (2 |h|²); the part of M along h (none, up to
     // rounding) is left out.
     let full = m.cross(&offset) / (2.0 * offset.norm_squared());
@@ -157,7 +163,7 @@ fn widest_across(c: &Mat3, u: &Vec3) -> Vec3 {
     let (c1, c2) = (c * e1, c * e2);
     let (b11, b22, b12) = (e1.dot(&c1), e2.dot(&c2), e1.dot(&c2));
     let half_gap = 0.5 * (b11 - b22);
-    let lambda = 0.5 * (b11 + b22) + half_gap.hypot(b12);
+    let lambda = 0.5 * (b11 + b22) + (half_gap * half_gap + b12 * b12).sqrt();
     // (λ − b22, b12) and (b12, λ − b11) are both eigenvectors; the longer is the better
     // conditioned.
     let (a, b) = if lambda - b22 >= lambda - b11 {
@@ -249,14 +255,16 @@ impl Clusterer {
                     q[4], q[5], q[2],
                 ) - shift * shift.transpose();
                 acc.pair = torque_pair(&acc.penalty, &couple, &cov, acc.unsigned);
+                acc.centre = acc.p_a / acc.w;
+                acc.body_centre = acc.r_a / acc.w;
             }
             // The offsets in the body frame: Σ w ((p − c) · spread) (r − r̄) / W over each
             // cluster, as h is over (p − c).
             for ((c, &a), &w) in contacts.iter().zip(&self.assign).zip(&self.weights) {
                 let acc = &mut self.acc[a as usize];
                 if let Some(pair) = &acc.pair {
-                    let along = (c.p_a - acc.p_a / acc.w).dot(&pair.spread);
-                    acc.offset_body += (c.r_a - acc.r_a / acc.w) * (w * along);
+                    let along = (c.p_a - acc.centre).dot(&pair.spread);
+                    acc.offset_body += (c.r_a - acc.body_centre) * (w * along);
                 }
             }
         }
