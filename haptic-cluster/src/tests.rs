@@ -730,7 +730,9 @@ proptest! {
         let t = added.dot(&couple) / couple.norm_squared().max(1e-300);
         let size = couple.norm() + 1e-9 * (t0_one.norm() + spring.norm()) + 1e-30;
         prop_assert!((f1 - f0).norm() <= 1e-9 * scale);
-        prop_assert!((added - couple * t).norm() <= 1e-6 * size, "{added:?} not along {couple:?}");
-        prop_assert!((-1e-6..=1.0 + 1e-6).contains(&t) || couple.norm() < 1e-9 * size, "t = {t}");
+        // Along the couple, by a part in [0, 1], to rounding (relative to the torques' sizes:
+        // where the couple is small beside them, t itself is known only roughly).
+        let t_in = t.clamp(0.0, 1.0);
+        prop_assert!((added - couple * t_in).norm() <= 1e-6 * size, "t = {t}: {added:?} not along {couple:?}");
     }
 }
