@@ -104,7 +104,7 @@ pub(crate) fn torque_pair(p: &Vec3, m: &Vec3, c: &Mat3, unsigned: Real) -> Optio
         return None;
     }
     // The direction of largest spread ⊥ C M (then h = C v ⊥ M).
-    let v = match (c * m).try_normalize(1e-12 * trace * m.norm()) {
+    let v = match unit(c * m, 1e-12 * trace * m.norm()) {
         Some(u) => widest_across(c, &u),
         None => widest(c, trace)?,
     };
@@ -117,7 +117,7 @@ pub(crate) fn torque_pair(p: &Vec3, m: &Vec3, c: &Mat3, unsigned: Real) -> Optio
     let offset = cv * scale;
     // h × G = M/2 with G ⊥ h: G = (M × h) / (2 |h|²); the part of M along h (none, up to
     // rounding) is left out.
-    let full = m.cross(&offset) / (2.0 * offset.norm_squared());
+    let full = m.cross(&offset) * (0.5 * offset.norm_squared().recip());
     let half = p * 0.5;
     let size = |t: Real| (half + full * t).norm() + (half - full * t).norm();
     // The springs' shares within the cluster's bound: the largest t ∈ [0, 1] that fits (the
@@ -153,12 +153,19 @@ pub(crate) fn torque_pair(p: &Vec3, m: &Vec3, c: &Mat3, unsigned: Real) -> Optio
     })
 }
 
+/// `v / |v|`, unless `|v| ≤ min` (one square root and one division).
+#[inline]
+fn unit(v: Vec3, min: Real) -> Option<Vec3> {
+    let len = v.norm();
+    (len > min).then(|| v * len.recip())
+}
+
 /// The unit direction `v ⊥ u` of largest `vᵀ C v` (`u` unit): the larger eigenvector of `C` on
 /// the plane across `u`, in closed form.
 fn widest_across(c: &Mat3, u: &Vec3) -> Vec3 {
     // An orthonormal basis of the plane: across u from its smallest axis.
     let axis = u.iamin();
-    let e1 = u.cross(&Vec3::ith(axis, 1.0)).normalize();
+    let e1 = unit(u.cross(&Vec3::ith(axis, 1.0)), 0.0).unwrap_or(Vec3::x());
     let e2 = u.cross(&e1);
     let (c1, c2) = (c * e1, c * e2);
     let (b11, b22, b12) = (e1.dot(&c1), e2.dot(&c2), e1.dot(&c2));
@@ -171,7 +178,7 @@ fn widest_across(c: &Mat3, u: &Vec3) -> Vec3 {
     } else {
         (b12, lambda - b11)
     };
-    (e1 * a + e2 * b).try_normalize(0.0).unwrap_or(e1)
+    unit(e1 * a + e2 * b, 0.0).unwrap_or(e1)
 }
 
 /// The unit direction of largest `vᵀ C v`: power iteration from `C`'s largest column; `None`
@@ -280,11 +287,16 @@ impl Clusterer {
             let d = (acc.d / acc.w).max(-delta_m);
             self.previous.push((p_a, d));
             // s = K' |F| / (W g_k) for a spring pushing with F (penalty units).
-            let share_of = |f: &Vec3| written * f.norm() / (total_w * weight(d, delta_m));
+            let share_per_force = written / (total_w * weight(d, delta_m));
             // Opposed normals can cancel: fall back to the deepest contact's normal (the share
             // is then about 0: the spring pushes as little as its contacts do).
             let spring = |p_a: Vec3, r_a: Vec3, f: Vec3, out: &mut ContactSet| {
-                let n = f.try_normalize(1e-9 * acc.w * delta_m).unwrap_or(deepest.n);
+                let size = f.norm();
+                let n = if size > 1e-9 * acc.w * delta_m {
+                    f * size.recip()
+                } else {
+                    deepest.n
+                };
                 out.push(Contact {
                     p_a,
                     r_a,
@@ -294,7 +306,7 @@ impl Clusterer {
                     feature_a: deepest.feature_a,
                     feature_b: deepest.feature_b,
                     area_m2: acc.area_m2,
-                    stiffness_share: share_of(&f),
+                    stiffness_share: share_per_force * size,
                 });
             };
             match acc.pair {
