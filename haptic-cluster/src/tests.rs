@@ -454,33 +454,6 @@ fn area_weights_make_the_representative_independent_of_the_tessellation() {
     assert!((m.p_a - unweighted.p_a).norm() < 1e-12);
 }
 
-/// The penalty the representatives make at their own state (eq. 33 with each one's stiffness
-/// share, unit `k_c`): `Σ_k s_k g_k n_k`, pushing along `n` (the sign aside).
-fn representatives_penalty(reps: &ContactSet) -> Vec3 {
-    reps.iter()
-        .map(|r| r.n * (r.stiffness_share * weight(r.depth_m, DELTA_M)))
-        .sum()
-}
-
-/// `K' Σ_i w_i g_i n_i / W` over the raw contacts: the area-weighted penalty the shares keep.
-fn contacts_penalty(contacts: &[Contact], written: usize) -> Vec3 {
-    let w = |c: &Contact| weight(c.depth_m, DELTA_M) * c.area_m2.max(0.0);
-    let with_areas = contacts.iter().all(|c| c.area_m2 > 0.0);
-    let w = |c: &Contact| {
-        if with_areas {
-            w(c)
-        } else {
-            weight(c.depth_m, DELTA_M)
-        }
-    };
-    let total: Real = contacts.iter().map(w).sum();
-    let sum: Vec3 = contacts
-        .iter()
-        .map(|c| c.n * (w(c) * weight(c.depth_m, DELTA_M)))
-        .sum();
-    sum * (written as Real / total)
-}
-
 proptest! {
     #![proptest_config(ProptestConfig::with_cases(256))]
 
@@ -498,9 +471,9 @@ proptest! {
         let mut reps = ContactSet::new();
         let mut cold = clusterer(k);
         cold.cluster(&contacts, DELTA_M, &mut reps).unwrap();
-        let expected = contacts_penalty(&contacts, reps.len());
-        let scale = contacts_penalty(&contacts, 1).norm().max(1e-12) + expected.norm();
-        let got = representatives_penalty(&reps);
+        let expected = contacts_wrench(&contacts, reps.len()).0;
+        let scale = contacts_wrench(&contacts, 1).0.norm().max(1e-12) + expected.norm();
+        let got = representatives_wrench(reps.as_slice()).0;
         prop_assert!((got - expected).norm() <= 1e-9 * scale, "cold: {got:?} against {expected:?}");
         let shares: Real = reps.iter().map(|r| r.stiffness_share).sum();
         prop_assert!(shares <= reps.len() as Real * (1.0 + 1e-9), "shares add up to {shares}");
@@ -515,7 +488,7 @@ proptest! {
         let mut other = ContactSet::new();
         warm.cluster(&contacts, DELTA_M, &mut other).unwrap();
         prop_assume!(other.len() == reps.len());
-        let got = representatives_penalty(&other);
+        let got = representatives_wrench(other.as_slice()).0;
         prop_assert!((got - expected).norm() <= 1e-9 * scale, "warm: {got:?} against {expected:?}");
     }
 }
