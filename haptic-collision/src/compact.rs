@@ -38,8 +38,9 @@
 //!   most (principal axis of their covariance). `e` is capped so that neither half is deeper
 //!   than the cell's deepest contact nor at the weights' floor, and their areas add up to no
 //!   more than the cell's (`e² ≤ ḡ (ḡ − Σ w / Σ a)`); the part of `Σ w g n` along `m` is not
-//!   kept. Splits count against `max`: a pass fits when its cells and their splits do. Only below `max = 13` (six normal bins, each split, and the deepest contact) may there
-//!   be no room for every split; then the cells that lose most are split first.
+//!   kept. Splits count against `max`: a pass fits when its cells and their splits do. Only
+//!   below `max = 13` (six normal bins, each split, and the deepest contact) may there be no
+//!   room for every split; then the cells that lose most are split first.
 //! - The deepest raw contact is kept as it is, so the closest approach (or deepest point) that
 //!   the query reports is unchanged by compaction.
 //!
