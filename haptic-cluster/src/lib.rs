@@ -18,9 +18,12 @@
 //!   (eq. 29), until the assignment stops changing or the iteration cap is hit. `E` never
 //!   increases from one iteration to the next.
 //! - Warm start from the previous call: the old clusters with the smallest depth are dropped when
-//!   fewer are wanted; each kept cluster is seeded at the contact closest to its old
-//!   representative (greedy closest pairs); more seeds go to the contacts furthest from the seeds
-//!   chosen so far. A cold start seeds the deepest contact first, then furthest points.
+//!   fewer are wanted; each kept cluster is seeded at its old centroid, so that contacts that
+//!   barely moved start at a fixed point of Lloyd's method (one iteration); more seeds go to the
+//!   contacts furthest from the seeds chosen so far. An old cluster that no contact is closest to
+//!   moves to the contact closest to it whose cluster keeps another, so every cluster has a
+//!   contact, as the paper's seeds at contacts ensure. A cold start seeds the deepest contact
+//!   first, then furthest points.
 //! - The representative of a cluster (eqs. 30–32, our choice where the paper is silent):
 //!   `p_a = c_k`, `r_a` the weighted mean of the `r_a`, `d = Σ w_i d_i / Σ w_i`,
 //!   `n = normalize(Σ w_i g_i n_i)` (`g_i = d_i + δ`: the direction of the penalty its contacts
@@ -81,8 +84,7 @@ use haptic_core::{Contact, ContactSet, CoreError, Real, Vec3};
 
 mod points;
 mod representatives;
-use points::{Points, closest_free};
-use representatives::Accumulator;
+use points::Points;
 use thiserror::Error;
 
 /// Parameters of the clustering.
@@ -209,10 +211,6 @@ pub struct Clusterer {
     assign: Vec<u32>,
     /// Scratch row of the seeding: squared distances from one point to every contact (m²).
     dist: Vec<Real>,
-    /// Per contact: squared distance to the closest centroid so far (m²) and its index.
-    best: Vec<Real>,
-    second: Vec<Real>,
-    nearest: Vec<Real>,
     /// Hamerly bounds per contact: upper on the distance to its centroid, lower on the distance
     /// to any other (m); and how far each centroid moved in the last update (m).
     upper: Vec<Real>,
@@ -230,15 +228,9 @@ pub struct Clusterer {
     remap: Vec<u32>,
     /// Previous call's representatives (position m, depth m), for the warm start.
     previous: Vec<(Vec3, Real)>,
-    /// Scratch: which previous clusters / contacts are taken during the greedy pairing.
-    taken_old: Vec<bool>,
-    taken_new: Vec<bool>,
-    /// Scratch: the contact chosen as seed for each old cluster.
-    seed_of_old: Vec<usize>,
-    /// Scratch: each old cluster's closest free contact (squared distance, index).
-    best_of_old: Vec<(Real, usize)>,
-    /// Scratch: per-cluster sums for the representatives.
-    acc: Vec<Accumulator>,
+    /// Scratch: the contacts' indices in cluster order, and where each cluster's run ends.
+    order: Vec<u32>,
+    starts: Vec<u32>,
     /// Cost after each assignment of the last call.
     costs: Vec<Real>,
     /// Each representative's weight `Σ w_i` of the last call, in the order written.
@@ -277,9 +269,6 @@ impl Clusterer {
             weights: Vec::new(),
             assign: Vec::new(),
             dist: Vec::new(),
-            best: Vec::new(),
-            second: Vec::new(),
-            nearest: Vec::new(),
             upper: Vec::new(),
             lower: Vec::new(),
             moves: Vec::with_capacity(k),
@@ -290,11 +279,8 @@ impl Clusterer {
             count: Vec::with_capacity(k),
             remap: Vec::with_capacity(k),
             previous: Vec::with_capacity(k),
-            taken_old: Vec::with_capacity(k),
-            taken_new: Vec::new(),
-            seed_of_old: Vec::with_capacity(k),
-            best_of_old: Vec::with_capacity(k),
-            acc: Vec::with_capacity(k),
+            order: Vec::new(),
+            starts: Vec::with_capacity(k + 1),
             costs: Vec::with_capacity(params.max_iterations + 2),
             representative_weights: Vec::with_capacity(k),
         })
@@ -450,65 +436,23 @@ impl Clusterer {
         })
     }
 
-    /// Picks up to `k_max` distinct seeds (contact positions) into `centroids`.
+    /// Picks up to `k_max` distinct seeds into `centroids`: the kept old centroids (warm), or
+    /// the deepest contact (cold); then the contacts furthest from the seeds so far.
     fn seed(&mut self, contacts: &[Contact], k_max: usize, warm: bool) {
         let n = self.points.len();
         self.centroids.clear();
-        self.taken_new.clear();
-        self.taken_new.resize(n, false);
         if warm {
-            // Keep the K deepest old clusters: drop the shallowest.
+            // Keep the K deepest old clusters: drop the shallowest. The seeds keep the order of
+            // the old clusters, so cluster identities persist from frame to frame.
             if self.previous.len() > k_max {
                 self.previous.sort_unstable_by(|a, b| b.1.total_cmp(&a.1));
                 self.previous.truncate(k_max);
             }
-            // Greedy closest pairs (old representative, new contact); the seeds keep the order
-            // of the old clusters, so cluster identities persist from frame to frame.
-            let m = self.previous.len();
-            self.taken_old.clear();
-            self.taken_old.resize(m, false);
-            self.seed_of_old.clear();
-            self.seed_of_old.resize(m, usize::MAX);
-            self.best_of_old.clear();
-            // Nothing is taken yet: a plain arg-min per old cluster, in one pass.
-            for (old, _) in &self.previous {
-                self.best_of_old.push(self.points.closest(old));
-            }
-            for _ in 0..m {
-                let mut pick = usize::MAX;
-                for j in 0..m {
-                    if !self.taken_old[j]
-                        && self.best_of_old[j].1 != usize::MAX
-                        && (pick == usize::MAX || self.best_of_old[j].0 < self.best_of_old[pick].0)
-                    {
-                        pick = j;
-                    }
-                }
-                if pick == usize::MAX {
-                    break;
-                }
-                let i = self.best_of_old[pick].1;
-                self.taken_old[pick] = true;
-                self.taken_new[i] = true;
-                self.seed_of_old[pick] = i;
-                // Old clusters whose closest contact was just taken look again.
-                for j in 0..m {
-                    if !self.taken_old[j] && self.best_of_old[j].1 == i {
-                        // Rare (two old clusters nearest the same contact): look again.
-                        let row = &mut self.dist[..];
-                        self.points.distances_squared(&self.previous[j].0, row);
-                        self.best_of_old[j] = closest_free(row, &self.taken_new);
-                    }
-                }
-            }
-            for &i in &self.seed_of_old {
-                if i == usize::MAX {
-                    continue;
-                }
-                let p = self.points.get(i);
-                // Coincident contacts could give two old clusters the same seed position: skip.
-                if !self.centroids.contains(&p) {
-                    self.centroids.push(p);
+            for &(old, _) in &self.previous {
+                // Two old clusters at one point would make one empty: keep the first. A
+                // non-finite history (from `warm_start_from`) seeds nothing.
+                if old.iter().all(|x| x.is_finite()) && !self.centroids.contains(&old) {
+                    self.centroids.push(old);
                 }
             }
         } else {
@@ -557,86 +501,116 @@ impl Clusterer {
     /// empty; records the cost (eq. 28) when asked to. Returns whether any assignment changed
     /// (always `true` when `first`).
     ///
-    /// The first pass runs centroid by centroid over all contacts, branch-free, so it
-    /// vectorises. Later passes use Hamerly's bounds: each contact keeps an upper bound on the
-    /// distance to its own centroid and a lower bound on the distance to any other; centroid
-    /// moves loosen them (triangle inequality) and only contacts whose bounds cross are scanned
-    /// again. The result is exactly Lloyd's assignment.
+    /// The first pass scans every contact against every centroid; a seed that no contact is
+    /// closest to (an old cluster whose contacts have gone) moves to the contact closest to it
+    /// whose cluster keeps another, as the paper seeds every cluster at a contact, and the pass
+    /// is made again. Later passes use Hamerly's bounds: each contact keeps an upper bound on
+    /// the distance to its own centroid and a lower bound on the distance to any other;
+    /// centroid moves loosen them (triangle inequality) and only contacts whose bounds cross are
+    /// scanned again. The result is exactly Lloyd's assignment.
     fn assign_all(&mut self, first: bool) -> bool {
-        let n = self.points.len();
-        let (x, y, z) = (
-            &self.points.x[..n],
-            &self.points.y[..n],
-            &self.points.z[..n],
-        );
-        let mut changed = first;
-        if first {
-            self.best.clear();
-            self.best.resize(n, Real::INFINITY);
-            self.second.clear();
-            self.second.resize(n, Real::INFINITY);
-            self.nearest.clear();
-            self.nearest.resize(n, 0.0);
-            let (best, second) = (&mut self.best[..n], &mut self.second[..n]);
-            let nearest = &mut self.nearest[..n];
-            for (j, c) in self.centroids.iter().enumerate() {
-                // The index as a float of the distances' width, so the selects vectorise.
-                let j = j as Real;
-                for i in 0..n {
-                    let (dx, dy, dz) = (x[i] - c.x, y[i] - c.y, z[i] - c.z);
-                    let d = dx * dx + dy * dy + dz * dz;
-                    let closer = d < best[i];
-                    second[i] = if closer { best[i] } else { second[i].min(d) };
-                    best[i] = if closer { d } else { best[i] };
-                    nearest[i] = if closer { j } else { nearest[i] };
-                }
-            }
-            self.upper.resize(n, 0.0);
-            self.lower.resize(n, 0.0);
-            for i in 0..n {
-                self.assign[i] = self.nearest[i] as u32;
-                self.upper[i] = self.best[i].sqrt();
-                self.lower[i] = self.second[i].sqrt();
-            }
-        } else {
-            // Largest and second largest centroid moves since the last pass.
-            let (mut m1, mut k1, mut m2) = (0.0, usize::MAX, 0.0);
-            for (k, &m) in self.moves.iter().enumerate() {
-                if m > m1 {
-                    (m2, m1, k1) = (m1, m, k);
-                } else if m > m2 {
-                    m2 = m;
-                }
-            }
-            for i in 0..n {
-                let a = self.assign[i] as usize;
-                self.upper[i] += self.moves[a];
-                self.lower[i] -= if a == k1 { m2 } else { m1 };
-                if self.upper[i] < self.lower[i] {
-                    continue;
-                }
-                // The bounds cross: scan this contact against every centroid.
-                let p = Vec3::new(x[i], y[i], z[i]);
-                let (mut d1, mut b1, mut d2) = (Real::INFINITY, 0u32, Real::INFINITY);
-                for (k, c) in self.centroids.iter().enumerate() {
-                    let d = (p - c).norm_squared();
-                    if d < d1 {
-                        (d2, d1, b1) = (d1, d, k as u32);
-                    } else if d < d2 {
-                        d2 = d;
-                    }
-                }
-                changed |= self.assign[i] != b1;
-                self.assign[i] = b1;
-                self.upper[i] = d1.sqrt();
-                self.lower[i] = d2.sqrt();
-            }
+        let changed = self.scan(first);
+        if first && self.reseed_empty() {
+            self.scan(true);
         }
         if self.record_costs {
             let cost = self.cost();
             self.costs.push(cost);
         }
         self.drop_empty();
+        changed
+    }
+
+    /// Moves each centroid that no contact is closest to onto the contact closest to it among
+    /// those whose cluster has another (ties: lowest index). Returns whether any moved.
+    fn reseed_empty(&mut self) -> bool {
+        let k = self.centroids.len();
+        self.count.clear();
+        self.count.resize(k, 0);
+        for &a in &self.assign {
+            self.count[a as usize] += 1;
+        }
+        let mut moved = false;
+        for j in 0..k {
+            if self.count[j] > 0 {
+                continue;
+            }
+            let c = self.centroids[j];
+            let mut pick = (Real::INFINITY, usize::MAX);
+            for (i, &a) in self.assign.iter().enumerate() {
+                if self.count[a as usize] > 1 {
+                    let d = (self.points.get(i) - c).norm_squared();
+                    if d < pick.0 {
+                        pick = (d, i);
+                    }
+                }
+            }
+            let Some(&a) = self.assign.get(pick.1) else {
+                continue; // every cluster has one contact: j stays empty and is dropped
+            };
+            self.count[a as usize] -= 1;
+            self.count[j] = 1;
+            self.assign[pick.1] = j as u32;
+            self.centroids[j] = self.points.get(pick.1);
+            moved = true;
+        }
+        moved
+    }
+
+    /// One assignment pass (see [`Clusterer::assign_all`]): every contact when `first`, else
+    /// those whose Hamerly bounds cross. Returns whether any assignment changed.
+    fn scan(&mut self, first: bool) -> bool {
+        let n = self.points.len();
+        self.upper.resize(n, 0.0);
+        self.lower.resize(n, 0.0);
+        let (x, y, z) = (
+            &self.points.x[..n],
+            &self.points.y[..n],
+            &self.points.z[..n],
+        );
+        let (assign, upper, lower) = (
+            &mut self.assign[..n],
+            &mut self.upper[..n],
+            &mut self.lower[..n],
+        );
+        let centroids = &self.centroids[..];
+        // Largest and second largest centroid moves since the last pass (none before the first).
+        let (mut m1, mut k1, mut m2) = (0.0, usize::MAX, 0.0);
+        let moves = if first { &[][..] } else { &self.moves[..] };
+        for (k, &m) in moves.iter().enumerate() {
+            if m > m1 {
+                (m2, m1, k1) = (m1, m, k);
+            } else if m > m2 {
+                m2 = m;
+            }
+        }
+        let mut changed = first;
+        for i in 0..n {
+            if !first {
+                let a = assign[i] as usize;
+                upper[i] += moves[a];
+                lower[i] -= if a == k1 { m2 } else { m1 };
+                if upper[i] < lower[i] {
+                    continue;
+                }
+            }
+            // The bounds cross (or the first pass): scan this contact against every centroid.
+            let (px, py, pz) = (x[i], y[i], z[i]);
+            let (mut d1, mut b1, mut d2) = (Real::INFINITY, 0u32, Real::INFINITY);
+            for (k, c) in centroids.iter().enumerate() {
+                let (dx, dy, dz) = (px - c.x, py - c.y, pz - c.z);
+                let d = dx * dx + dy * dy + dz * dz;
+                if d < d1 {
+                    (d2, d1, b1) = (d1, d, k as u32);
+                } else if d < d2 {
+                    d2 = d;
+                }
+            }
+            changed |= assign[i] != b1;
+            assign[i] = b1;
+            upper[i] = d1.sqrt();
+            lower[i] = d2.sqrt();
+        }
         changed
     }
 

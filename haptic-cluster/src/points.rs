@@ -1,5 +1,4 @@
-//! The contacts' positions in structure-of-arrays form, and the nearest-point searches of the
-//! seeding and the assignment.
+//! The contacts' positions in structure-of-arrays form, for the seeding's distance rows.
 
 use haptic_core::{Real, Vec3};
 
@@ -20,21 +19,6 @@ impl Points {
         Vec3::new(self.x[i], self.y[i], self.z[i])
     }
 
-    /// The point closest to `c`: (squared distance, index); ties go to the lowest index.
-    pub(crate) fn closest(&self, c: &Vec3) -> (Real, usize) {
-        let n = self.x.len();
-        let (x, y, z) = (&self.x[..n], &self.y[..n], &self.z[..n]);
-        let mut best = (Real::INFINITY, usize::MAX);
-        for i in 0..n {
-            let (dx, dy, dz) = (x[i] - c.x, y[i] - c.y, z[i] - c.z);
-            let d = dx * dx + dy * dy + dz * dz;
-            if d < best.0 {
-                best = (d, i);
-            }
-        }
-        best
-    }
-
     /// `out[i] = |p_i − c|²` for every point.
     pub(crate) fn distances_squared(&self, c: &Vec3, out: &mut [Real]) {
         let n = out.len();
@@ -44,15 +28,4 @@ impl Points {
             out[i] = dx * dx + dy * dy + dz * dz;
         }
     }
-}
-
-/// The arg-min of a row over the entries not `taken` (ties: lowest index), or `usize::MAX`.
-pub(crate) fn closest_free(row: &[Real], taken: &[bool]) -> (Real, usize) {
-    let mut best = (Real::INFINITY, usize::MAX);
-    for (i, (&d2, &t)) in row.iter().zip(taken).enumerate() {
-        if !t && d2 < best.0 {
-            best = (d2, i);
-        }
-    }
-    best
 }

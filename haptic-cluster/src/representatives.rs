@@ -35,32 +35,26 @@ use crate::{Clusterer, weight};
 
 /// Weighted sums over one cluster's contacts.
 #[derive(Debug, Clone, Copy)]
-pub(crate) struct Accumulator {
-    pub cost: Real,
-    pub w: Real,
-    pub p_a: Vec3,
-    pub r_a: Vec3,
+struct Sums {
+    cost: Real,
+    w: Real,
+    p_a: Vec3,
+    r_a: Vec3,
     /// `Σ w_i g_i s_i n_i`: the direction and size of the cluster's penalty.
-    pub penalty: Vec3,
+    penalty: Vec3,
     /// `Σ w_i g_i s_i`: the penalty's size were every normal the same.
-    pub unsigned: Real,
-    pub d: Real,
-    pub area_m2: Real,
-    pub deepest: usize,
+    unsigned: Real,
+    d: Real,
+    area_m2: Real,
+    deepest: usize,
     /// Torque pairs only, about the local origin `o` (the cluster's final centroid from Lloyd's
     /// iterations): `Σ (p_i − o) × u_i` and `Σ w_i (p_i − o)(p_i − o)ᵀ` (xx, yy, zz, xy, xz,
     /// yz).
-    pub moment: Vec3,
-    pub second: [Real; 6],
-    /// The cluster's torque pair, its centroid and mean `r_a` (for the second pass), and its
-    /// offset in the body frame (summed in the second pass).
-    pub pair: Option<TorquePair>,
-    pub centre: Vec3,
-    pub body_centre: Vec3,
-    pub offset_body: Vec3,
+    moment: Vec3,
+    second: [Real; 6],
 }
 
-impl Default for Accumulator {
+impl Default for Sums {
     fn default() -> Self {
         Self {
             cost: 0.0,
@@ -74,10 +68,6 @@ impl Default for Accumulator {
             deepest: usize::MAX,
             moment: Vec3::zeros(),
             second: [0.0; 6],
-            pair: None,
-            centre: Vec3::zeros(),
-            body_centre: Vec3::zeros(),
-            offset_body: Vec3::zeros(),
         }
     }
 }
@@ -103,14 +93,17 @@ pub(crate) fn torque_pair(p: &Vec3, m: &Vec3, c: &Mat3, unsigned: Real) -> Optio
     if trace.is_nan() || trace <= 0.0 {
         return None;
     }
-    // The direction of largest spread ⊥ C M (then h = C v ⊥ M).
-    let v = match unit(c * m, 1e-12 * trace * m.norm()) {
-        Some(u) => widest_across(c, &u),
-        None => widest(c, trace)?,
+    // The direction of largest spread ⊥ C M (then h = C v ⊥ M); its length does not matter,
+    // since h and the spread below are the same for any multiple of v.
+    let cm = c * m;
+    let v = if cm.norm_squared() > (1e-12 * trace) * (1e-12 * trace) * m.norm_squared() {
+        widest_across(c, &cm)
+    } else {
+        widest(c, trace)?
     };
     let cv = c * v;
     let spread_sq = v.dot(&cv);
-    if spread_sq.is_nan() || spread_sq <= 1e-12 * trace {
+    if spread_sq.is_nan() || spread_sq <= 1e-12 * trace * v.norm_squared() {
         return None;
     }
     let scale = spread_sq.sqrt().recip();
@@ -153,32 +146,31 @@ pub(crate) fn torque_pair(p: &Vec3, m: &Vec3, c: &Mat3, unsigned: Real) -> Optio
     })
 }
 
-/// `v / |v|`, unless `|v| ≤ min` (one square root and one division).
-#[inline]
-fn unit(v: Vec3, min: Real) -> Option<Vec3> {
-    let len = v.norm();
-    (len > min).then(|| v * len.recip())
-}
-
-/// The unit direction `v ⊥ u` of largest `vᵀ C v` (`u` unit): the larger eigenvector of `C` on
-/// the plane across `u`, in closed form.
+/// A direction `v ⊥ u` of largest `vᵀ C v / |v|²` (`u` not zero), of no particular length:
+/// the larger eigenvector of `C` on the plane across `u`, in closed form and without a square
+/// root of its own but the eigenvalue's.
 fn widest_across(c: &Mat3, u: &Vec3) -> Vec3 {
-    // An orthonormal basis of the plane: across u from its smallest axis.
-    let axis = u.iamin();
-    let e1 = unit(u.cross(&Vec3::ith(axis, 1.0)), 0.0).unwrap_or(Vec3::x());
+    // An orthogonal basis of the plane: e1 = u × (u's smallest axis), e2 = u × e1, with
+    // |e2| = |u| |e1|. In the basis (e1, e2 / |u|), both of length |e1|, the plane's block of
+    // C is B / |e1|² with B = [b11, b12/|u|; b12/|u|, b22/|u|²] (b_ij = e_iᵀ C e_j): the same
+    // eigenvectors as the orthonormal basis gives.
+    let e1 = u.cross(&Vec3::ith(u.iamin(), 1.0));
     let e2 = u.cross(&e1);
+    let inv_uu = u.norm_squared().recip();
     let (c1, c2) = (c * e1, c * e2);
-    let (b11, b22, b12) = (e1.dot(&c1), e2.dot(&c2), e1.dot(&c2));
+    let (b11, b22, b12) = (e1.dot(&c1), e2.dot(&c2) * inv_uu, e1.dot(&c2));
+    // b12 stands for b12/|u|, whose square is b12² / |u|².
     let half_gap = 0.5 * (b11 - b22);
-    let lambda = 0.5 * (b11 + b22) + (half_gap * half_gap + b12 * b12).sqrt();
-    // (λ − b22, b12) and (b12, λ − b11) are both eigenvectors; the longer is the better
-    // conditioned.
-    let (a, b) = if lambda - b22 >= lambda - b11 {
-        (lambda - b22, b12)
+    let lambda = 0.5 * (b11 + b22) + (half_gap * half_gap + b12 * b12 * inv_uu).sqrt();
+    // (λ − b22, b12/|u|) and (b12/|u|, λ − b11) are both eigenvectors in that basis; the longer
+    // is the better conditioned. Back in (e1, e2), up to a positive factor: the first is
+    // (λ − b22) e1 + (b12/|u|²) e2, the second b12 e1 + (λ − b11) e2.
+    let v = if lambda - b22 >= lambda - b11 {
+        e1 * (lambda - b22) + e2 * (b12 * inv_uu)
     } else {
-        (b12, lambda - b11)
+        e1 * b12 + e2 * (lambda - b11)
     };
-    unit(e1 * a + e2 * b, 0.0).unwrap_or(e1)
+    if v.norm_squared() > 0.0 { v } else { e1 }
 }
 
 /// The unit direction of largest `vᵀ C v`: power iteration from `C`'s largest column; `None`
@@ -199,9 +191,10 @@ fn widest(c: &Mat3, trace: Real) -> Option<Vec3> {
 
 impl Clusterer {
     /// The representatives of the final clusters (eqs. 30–32 and the shares of the crate docs;
-    /// a torque pair per cluster when asked for, the module docs), in one pass over the
-    /// contacts (two with torque pairs); the clusters' centroids and depths become the next
-    /// call's history. Returns the cost `E` (eq. 28) of the final assignment and centroids.
+    /// a torque pair per cluster when asked for, the module docs), cluster by cluster over each
+    /// one's contacts (twice with torque pairs); the clusters' centroids and depths become the
+    /// next call's history. Returns the cost `E` (eq. 28) of the final assignment and
+    /// centroids.
     pub(crate) fn write_representatives(
         &mut self,
         contacts: &[Contact],
@@ -210,50 +203,75 @@ impl Clusterer {
     ) -> Real {
         let pairs = self.params.torque_pairs;
         let k = self.centroids.len();
-        self.acc.clear();
-        self.acc.resize(k, Accumulator::default());
-        let mut total_w = 0.0;
-        for (i, ((c, &a), &w)) in contacts
-            .iter()
-            .zip(&self.assign)
-            .zip(&self.weights)
-            .enumerate()
-        {
-            let origin = self.centroids[a as usize];
-            let acc = &mut self.acc[a as usize];
-            let off = c.p_a - origin;
-            acc.cost += w * off.norm_squared();
-            acc.w += w;
-            acc.p_a += c.p_a * w;
-            acc.r_a += c.r_a * w;
-            let push = w * weight(c.depth_m, delta_m) * c.stiffness_share;
-            acc.penalty += c.n * push;
-            acc.unsigned += push;
-            acc.d += c.depth_m * w;
-            acc.area_m2 += c.area_m2;
-            if acc.deepest == usize::MAX || c.depth_m > contacts[acc.deepest].depth_m {
-                acc.deepest = i;
-            }
-            if pairs {
-                acc.moment += off.cross(&c.n) * push;
-                let wo = off * w;
-                let q = &mut acc.second;
-                q[0] += wo.x * off.x;
-                q[1] += wo.y * off.y;
-                q[2] += wo.z * off.z;
-                q[3] += wo.x * off.y;
-                q[4] += wo.x * off.z;
-                q[5] += wo.y * off.z;
-            }
-            total_w += w;
+        // The contacts in cluster order (a stable counting sort), so that each cluster's sums
+        // build up in registers rather than in memory.
+        self.starts.clear();
+        self.starts.resize(k + 1, 0);
+        for &a in &self.assign {
+            self.starts[a as usize + 1] += 1;
         }
-        if pairs {
-            for (acc, origin) in self.acc.iter_mut().zip(&self.centroids) {
-                if acc.deepest == usize::MAX {
-                    continue;
+        for j in 0..k {
+            self.starts[j + 1] += self.starts[j];
+        }
+        self.order.resize(contacts.len(), 0);
+        for (i, &a) in self.assign.iter().enumerate() {
+            let slot = &mut self.starts[a as usize];
+            self.order[*slot as usize] = i as u32;
+            *slot += 1;
+        }
+        // `starts[j]` is now where cluster j ends; it began where cluster j − 1 ends.
+        let total_w: Real = self.weights.iter().sum();
+        // K': every cluster left after the last assignment has a contact.
+        let written = k as Real;
+        self.previous.clear();
+        let mut cost = 0.0;
+        for j in 0..k {
+            let begin = if j == 0 {
+                0
+            } else {
+                self.starts[j - 1] as usize
+            };
+            let members = &self.order[begin..self.starts[j] as usize];
+            let origin = self.centroids[j];
+            let mut acc = Sums::default();
+            for &i in members {
+                let (c, w) = (&contacts[i as usize], self.weights[i as usize]);
+                let off = c.p_a - origin;
+                acc.cost += w * off.norm_squared();
+                acc.w += w;
+                acc.p_a += c.p_a * w;
+                acc.r_a += c.r_a * w;
+                let push = w * weight(c.depth_m, delta_m) * c.stiffness_share;
+                acc.penalty += c.n * push;
+                acc.unsigned += push;
+                acc.d += c.depth_m * w;
+                acc.area_m2 += c.area_m2;
+                if acc.deepest == usize::MAX || c.depth_m > contacts[acc.deepest].depth_m {
+                    acc.deepest = i as usize;
                 }
+                if pairs {
+                    acc.moment += off.cross(&c.n) * push;
+                    let wo = off * w;
+                    let q = &mut acc.second;
+                    q[0] += wo.x * off.x;
+                    q[1] += wo.y * off.y;
+                    q[2] += wo.z * off.z;
+                    q[3] += wo.x * off.y;
+                    q[4] += wo.x * off.z;
+                    q[5] += wo.y * off.z;
+                }
+            }
+            cost += acc.cost;
+            let Some(deepest) = contacts.get(acc.deepest) else {
+                continue; // no contact (not after an assignment; kept for safety)
+            };
+            let p_a = acc.p_a / acc.w;
+            let r_a = acc.r_a / acc.w;
+            let d = (acc.d / acc.w).max(-delta_m);
+            self.previous.push((p_a, d));
+            let pair = if pairs {
                 // The sums about the local origin, moved to the centroid.
-                let shift = acc.p_a / acc.w - origin;
+                let shift = p_a - origin;
                 let couple = acc.moment - shift.cross(&acc.penalty);
                 let q = acc.second.map(|x| x / acc.w);
                 let cov = Mat3::new(
@@ -261,31 +279,20 @@ impl Clusterer {
                     q[3], q[1], q[5], //
                     q[4], q[5], q[2],
                 ) - shift * shift.transpose();
-                acc.pair = torque_pair(&acc.penalty, &couple, &cov, acc.unsigned);
-                acc.centre = acc.p_a / acc.w;
-                acc.body_centre = acc.r_a / acc.w;
-            }
-            // The offsets in the body frame: Σ w ((p − c) · spread) (r − r̄) / W over each
-            // cluster, as h is over (p − c).
-            for ((c, &a), &w) in contacts.iter().zip(&self.assign).zip(&self.weights) {
-                let acc = &mut self.acc[a as usize];
-                if let Some(pair) = &acc.pair {
-                    let along = (c.p_a - acc.centre).dot(&pair.spread);
-                    acc.offset_body += (c.r_a - acc.body_centre) * (w * along);
-                }
-            }
-        }
-        let written = self.acc.iter().filter(|a| a.deepest != usize::MAX).count() as Real;
-        self.previous.clear();
-        for acc in &self.acc {
-            if acc.deepest == usize::MAX {
-                continue;
-            }
-            let deepest = &contacts[acc.deepest];
-            let p_a = acc.p_a / acc.w;
-            let r_a = acc.r_a / acc.w;
-            let d = (acc.d / acc.w).max(-delta_m);
-            self.previous.push((p_a, d));
+                torque_pair(&acc.penalty, &couple, &cov, acc.unsigned).map(|pair| {
+                    // The offset in the body frame: Σ w ((p − c) · spread) (r − r̄) / W over the
+                    // cluster, as h is over (p − c).
+                    let mut offset_body = Vec3::zeros();
+                    for &i in members {
+                        let (c, w) = (&contacts[i as usize], self.weights[i as usize]);
+                        let along = (c.p_a - p_a).dot(&pair.spread);
+                        offset_body += (c.r_a - r_a) * (w * along);
+                    }
+                    (pair, offset_body / acc.w)
+                })
+            } else {
+                None
+            };
             // s = K' |F| / (W g_k) for a spring pushing with F (penalty units).
             let share_per_force = written / (total_w * weight(d, delta_m));
             // Opposed normals can cancel: fall back to the deepest contact's normal (the share
@@ -309,10 +316,9 @@ impl Clusterer {
                     stiffness_share: share_per_force * size,
                 });
             };
-            match acc.pair {
-                Some(pair) => {
+            match pair {
+                Some((pair, offset_body)) => {
                     let half = acc.penalty * 0.5;
-                    let offset_body = acc.offset_body / acc.w;
                     self.representative_weights.push(0.5 * acc.w);
                     self.representative_weights.push(0.5 * acc.w);
                     spring(p_a + pair.offset, r_a + offset_body, half + pair.tilt, out);
@@ -324,7 +330,7 @@ impl Clusterer {
                 }
             }
         }
-        self.acc.iter().map(|a| a.cost).sum()
+        cost
     }
 }
 

@@ -342,6 +342,58 @@ fn warm_start_moves_representatives_continuously() {
     assert!(cold > 5.0 * warm, "cold {cold} m vs warm {warm} m");
 }
 
+/// Seeds at the old centroids: a warm start on contacts that have not moved begins at a fixed
+/// point of Lloyd's method, so its first assignment is the last one (one iteration), where
+/// seeds at the contacts closest to the old centroids would start elsewhere and iterate back.
+#[test]
+fn a_warm_start_on_unmoved_contacts_is_converged_at_once() {
+    for (frame, n) in [(0, 50), (300, 40), (7, 200)] {
+        let contacts = drifting_frame(frame, n);
+        let mut c = Clusterer::new(paper()).unwrap();
+        let mut reps = ContactSet::new();
+        c.cluster(&contacts, DELTA_M, &mut reps).unwrap();
+        let first: Vec<Contact> = reps.iter().copied().collect();
+        let stats = c.cluster(&contacts, DELTA_M, &mut reps).unwrap();
+        assert!(stats.warm && stats.converged);
+        assert_eq!(stats.iterations, 1, "frame {frame}, {n} contacts");
+        assert_eq!(reps.as_slice(), first.as_slice());
+    }
+}
+
+/// An old cluster whose contacts have all gone is seeded at the contact closest to it whose
+/// cluster keeps another (the paper seeds every cluster at a contact), so a warm start still
+/// gives K clusters, none empty.
+#[test]
+fn an_old_cluster_whose_contacts_have_gone_is_seeded_at_a_contact() {
+    let patch = |x0: Real| -> Vec<Contact> {
+        (0..12)
+            .map(|i| {
+                let p = Vec3::new(x0 + 1e-3 * (i % 4) as Real, 1e-3 * (i / 4) as Real, 0.0);
+                contact(p, Vec3::z(), 5e-4)
+            })
+            .collect()
+    };
+    let mut both = patch(0.0);
+    both.extend(patch(0.1));
+    let mut c = clusterer(2);
+    let mut reps = ContactSet::new();
+    assert_eq!(c.cluster(&both, DELTA_M, &mut reps).unwrap().clusters, 2);
+    // The second patch lifts off; the first stays.
+    let left = patch(0.0);
+    let stats = c.cluster(&left, DELTA_M, &mut reps).unwrap();
+    assert!(stats.warm);
+    assert_eq!(stats.clusters, 2);
+    let mut count = [0usize; 2];
+    for &a in c.assignments() {
+        count[a as usize] += 1;
+    }
+    assert!(count.iter().all(|&n| n > 0), "{count:?}");
+    // Both representatives lie on the remaining patch.
+    for r in reps.iter() {
+        assert!(r.p_a.x <= 3e-3 + 1e-12, "{:?}", r.p_a);
+    }
+}
+
 #[test]
 fn same_input_gives_same_output() {
     let run = || {
@@ -391,6 +443,15 @@ fn warm_start_from_given_representatives_replays_that_history() {
     // An empty history means a cold start.
     told.warm_start_from(&[]);
     assert!(!told.cluster(&b, DELTA_M, &mut reps).unwrap().warm);
+
+    // A history with a non-finite centre seeds nothing there: K finite representatives.
+    let nan = Vec3::new(Real::NAN, 0.0, 0.0);
+    for centres in [vec![(nan, 1e-3)], vec![(nan, 1e-3), (Vec3::zeros(), 1e-3)]] {
+        told.warm_start_from_centres(&centres);
+        let stats = told.cluster(&b, DELTA_M, &mut reps).unwrap();
+        assert_eq!(stats.clusters, paper().max_clusters);
+        assert!(reps.iter().all(|r| r.validate().is_ok()));
+    }
 }
 
 /// The contacts of a 2 cm square face at tilted depth, one per cell of an `n × n` grid whose
