@@ -20,10 +20,11 @@
 //! - Warm start from the previous call: the old clusters with the smallest depth are dropped when
 //!   fewer are wanted; each kept cluster is seeded at its old centroid, so that contacts that
 //!   barely moved start at a fixed point of Lloyd's method (one iteration); more seeds go to the
-//!   contacts furthest from the seeds chosen so far. An old cluster that no contact is closest to
-//!   moves to the contact closest to it whose cluster keeps another, so every cluster has a
-//!   contact, as the paper's seeds at contacts ensure. A cold start seeds the deepest contact
-//!   first, then furthest points.
+//!   contacts furthest from the seeds chosen so far. Where an old centroid then has no contact
+//!   nearest to it (the contacts jumped), the seeds are the paper's instead: each kept cluster at
+//!   the free contact nearest its old centroid (greedy closest pairs), so every cluster starts
+//!   with a contact. A cold start seeds the deepest contact first, then furthest points
+//!   (`seeding.rs`).
 //! - The representative of a cluster (eqs. 30–32, our choice where the paper is silent):
 //!   `p_a = c_k`, `r_a` the weighted mean of the `r_a`, `d = Σ w_i d_i / Σ w_i`,
 //!   `n = normalize(Σ w_i g_i n_i)` (`g_i = d_i + δ`: the direction of the penalty its contacts
@@ -84,7 +85,9 @@ use haptic_core::{Contact, ContactSet, CoreError, Real, Vec3};
 
 mod points;
 mod representatives;
+mod seeding;
 use points::Points;
+use seeding::Seeds;
 use thiserror::Error;
 
 /// Parameters of the clustering.
@@ -220,6 +223,13 @@ pub struct Clusterer {
     record_costs: bool,
     /// Squared distance of each contact to the nearest seed (seeding).
     min_d2: Vec<Real>,
+    /// Scratch of the seeds at contacts: which old clusters / contacts are taken during the
+    /// greedy pairing, the contact chosen for each old cluster, and each old cluster's closest
+    /// free contact (squared distance, index).
+    taken_old: Vec<bool>,
+    taken_new: Vec<bool>,
+    seed_of_old: Vec<usize>,
+    best_of_old: Vec<(Real, usize)>,
     /// Seeds, then centroids (m), and per-cluster sums.
     centroids: Vec<Vec3>,
     sums: Vec<[Real; 4]>,
@@ -274,6 +284,10 @@ impl Clusterer {
             moves: Vec::with_capacity(k),
             record_costs: false,
             min_d2: Vec::new(),
+            taken_old: Vec::with_capacity(k),
+            taken_new: Vec::new(),
+            seed_of_old: Vec::with_capacity(k),
+            best_of_old: Vec::with_capacity(k),
             centroids: Vec::with_capacity(k),
             sums: Vec::with_capacity(k),
             count: Vec::with_capacity(k),
@@ -401,11 +415,18 @@ impl Clusterer {
         let k_max = self.params.max_clusters.min(n);
         self.dist.resize(n, 0.0);
 
+        // Seeds (`seeding.rs`): warm at the old centroids; where a cluster then has no contact
+        // (the contacts jumped), the paper's seeds at the contacts nearest the old centroids.
         let warm = self.params.warm_start && !self.previous.is_empty();
-        self.seed(contacts, k_max, warm);
+        self.seed(contacts, k_max, warm.then_some(Seeds::AtOldCentroids));
+        self.scan(true);
+        if warm && self.has_empty_cluster() {
+            self.seed(contacts, k_max, Some(Seeds::AtNearestContacts));
+            self.scan(true);
+        }
+        self.finish_pass();
 
         // Lloyd: assign to the closest centroid, then move centroids to the weighted means.
-        self.assign_all(true);
         let mut iterations = 0;
         let mut converged = false;
         while iterations < self.params.max_iterations {
@@ -436,125 +457,28 @@ impl Clusterer {
         })
     }
 
-    /// Picks up to `k_max` distinct seeds into `centroids`: the kept old centroids (warm), or
-    /// the deepest contact (cold); then the contacts furthest from the seeds so far.
-    fn seed(&mut self, contacts: &[Contact], k_max: usize, warm: bool) {
-        let n = self.points.len();
-        self.centroids.clear();
-        if warm {
-            // Keep the K deepest old clusters: drop the shallowest. The seeds keep the order of
-            // the old clusters, so cluster identities persist from frame to frame.
-            if self.previous.len() > k_max {
-                self.previous.sort_unstable_by(|a, b| b.1.total_cmp(&a.1));
-                self.previous.truncate(k_max);
-            }
-            for &(old, _) in &self.previous {
-                // Two old clusters at one point would make one empty: keep the first. A
-                // non-finite history (from `warm_start_from`) seeds nothing.
-                if old.iter().all(|x| x.is_finite()) && !self.centroids.contains(&old) {
-                    self.centroids.push(old);
-                }
-            }
-        } else {
-            // Cold: the deepest contact (lowest index among equals) first.
-            let mut first = 0;
-            for (i, c) in contacts.iter().enumerate() {
-                if c.depth_m > contacts[first].depth_m {
-                    first = i;
-                }
-            }
-            self.centroids.push(self.points.get(first));
-        }
-        if self.centroids.len() >= k_max {
-            return;
-        }
-        // Furthest-point seeds for the rest.
-        self.min_d2.clear();
-        self.min_d2.resize(n, Real::INFINITY);
-        let row = &mut self.dist[..];
-        for c in &self.centroids {
-            self.points.distances_squared(c, row);
-            for (m, d) in self.min_d2.iter_mut().zip(row.iter()) {
-                *m = m.min(*d);
-            }
-        }
-        while self.centroids.len() < k_max {
-            let mut best = (0.0, usize::MAX);
-            for (i, &d2) in self.min_d2.iter().enumerate() {
-                if d2 > best.0 {
-                    best = (d2, i);
-                }
-            }
-            if best.1 == usize::MAX {
-                break; // every remaining contact coincides with a seed
-            }
-            let s = self.points.get(best.1);
-            self.centroids.push(s);
-            self.points.distances_squared(&s, row);
-            for (m, d) in self.min_d2.iter_mut().zip(row.iter()) {
-                *m = m.min(*d);
-            }
-        }
-    }
-
     /// Assigns every contact to its closest centroid (ties: lowest index) and drops clusters left
     /// empty; records the cost (eq. 28) when asked to. Returns whether any assignment changed
     /// (always `true` when `first`).
     ///
-    /// The first pass scans every contact against every centroid; a seed that no contact is
-    /// closest to (an old cluster whose contacts have gone) moves to the contact closest to it
-    /// whose cluster keeps another, as the paper seeds every cluster at a contact, and the pass
-    /// is made again. Later passes use Hamerly's bounds: each contact keeps an upper bound on
-    /// the distance to its own centroid and a lower bound on the distance to any other;
-    /// centroid moves loosen them (triangle inequality) and only contacts whose bounds cross are
-    /// scanned again. The result is exactly Lloyd's assignment.
+    /// The first pass scans every contact against every centroid. Later passes use Hamerly's
+    /// bounds: each contact keeps an upper bound on the distance to its own centroid and a lower
+    /// bound on the distance to any other; centroid moves loosen them (triangle inequality) and
+    /// only contacts whose bounds cross are scanned again. The result is exactly Lloyd's
+    /// assignment.
     fn assign_all(&mut self, first: bool) -> bool {
         let changed = self.scan(first);
-        if first && self.reseed_empty() {
-            self.scan(true);
-        }
+        self.finish_pass();
+        changed
+    }
+
+    /// After an assignment pass: records the cost when asked to, and drops empty clusters.
+    fn finish_pass(&mut self) {
         if self.record_costs {
             let cost = self.cost();
             self.costs.push(cost);
         }
         self.drop_empty();
-        changed
-    }
-
-    /// Moves each centroid that no contact is closest to onto the contact closest to it among
-    /// those whose cluster has another (ties: lowest index). Returns whether any moved.
-    fn reseed_empty(&mut self) -> bool {
-        let k = self.centroids.len();
-        self.count.clear();
-        self.count.resize(k, 0);
-        for &a in &self.assign {
-            self.count[a as usize] += 1;
-        }
-        let mut moved = false;
-        for j in 0..k {
-            if self.count[j] > 0 {
-                continue;
-            }
-            let c = self.centroids[j];
-            let mut pick = (Real::INFINITY, usize::MAX);
-            for (i, &a) in self.assign.iter().enumerate() {
-                if self.count[a as usize] > 1 {
-                    let d = (self.points.get(i) - c).norm_squared();
-                    if d < pick.0 {
-                        pick = (d, i);
-                    }
-                }
-            }
-            let Some(&a) = self.assign.get(pick.1) else {
-                continue; // every cluster has one contact: j stays empty and is dropped
-            };
-            self.count[a as usize] -= 1;
-            self.count[j] = 1;
-            self.assign[pick.1] = j as u32;
-            self.centroids[j] = self.points.get(pick.1);
-            moved = true;
-        }
-        moved
     }
 
     /// One assignment pass (see [`Clusterer::assign_all`]): every contact when `first`, else

@@ -360,9 +360,9 @@ fn a_warm_start_on_unmoved_contacts_is_converged_at_once() {
     }
 }
 
-/// An old cluster whose contacts have all gone is seeded at the contact closest to it whose
-/// cluster keeps another (the paper seeds every cluster at a contact), so a warm start still
-/// gives K clusters, none empty.
+/// An old cluster whose contacts have all gone makes the warm start fall back to the paper's
+/// seeds, at the contacts nearest the old centroids, so a warm start still gives K clusters,
+/// none empty: when part of the contacts lift off, and when they all jump elsewhere.
 #[test]
 fn an_old_cluster_whose_contacts_have_gone_is_seeded_at_a_contact() {
     let patch = |x0: Real| -> Vec<Contact> {
@@ -392,6 +392,22 @@ fn an_old_cluster_whose_contacts_have_gone_is_seeded_at_a_contact() {
     for r in reps.iter() {
         assert!(r.p_a.x <= 3e-3 + 1e-12, "{:?}", r.p_a);
     }
+
+    // A tool that jumps: the contacts of a ring, then of the same ring 5 cm away and turned.
+    let mut c = clusterer(5);
+    c.cluster(&drifting_frame(0, 40), DELTA_M, &mut reps)
+        .unwrap();
+    let moved: Vec<Contact> = drifting_frame(500, 40)
+        .into_iter()
+        .map(|mut k| {
+            k.p_a += Vec3::new(0.05, 0.0, 0.0);
+            k.p_b += Vec3::new(0.05, 0.0, 0.0);
+            k
+        })
+        .collect();
+    let stats = c.cluster(&moved, DELTA_M, &mut reps).unwrap();
+    assert!(stats.warm);
+    assert_eq!(stats.clusters, 5);
 }
 
 #[test]
