@@ -106,11 +106,14 @@ pub(crate) fn torque_pair(p: &Vec3, m: &Vec3, c: &Mat3, unsigned: Real) -> Optio
     if spread_sq.is_nan() || spread_sq <= 1e-12 * trace * v.norm_squared() {
         return None;
     }
-    let scale = spread_sq.sqrt().recip();
+    // h = C v / √(vᵀ C v), and h × G = M/2 with G ⊥ h: G = (M × h) / (2 |h|²) =
+    // (M × C v) √(vᵀ C v) / (2 |C v|²); the part of M along h (none, up to rounding) is left
+    // out. The square root and the two reciprocals do not wait for one another.
+    let root = spread_sq.sqrt();
+    let (inv_spread_sq, inv_cv_sq) = (spread_sq.recip(), cv.norm_squared().recip());
+    let scale = root * inv_spread_sq;
     let offset = cv * scale;
-    // h × G = M/2 with G ⊥ h: G = (M × h) / (2 |h|²); the part of M along h (none, up to
-    // rounding) is left out.
-    let full = m.cross(&offset) * (0.5 * offset.norm_squared().recip());
+    let full = m.cross(&cv) * (0.5 * root * inv_cv_sq);
     let half = p * 0.5;
     let size = |t: Real| (half + full * t).norm() + (half - full * t).norm();
     // The springs' shares within the cluster's bound: the largest t ∈ [0, 1] that fits (the
@@ -130,14 +133,13 @@ pub(crate) fn torque_pair(p: &Vec3, m: &Vec3, c: &Mat3, unsigned: Real) -> Optio
         } else {
             0.0
         };
-        // Rounding: step back until it fits (0 always does).
-        for _ in 0..8 {
-            if fits(t) {
-                break;
-            }
+        // Rounding: step back until it fits, eight times at most; then 0 (no couple).
+        let mut steps = 0;
+        while !fits(t) && steps < 8 {
+            steps += 1;
             t *= 1.0 - 1e-9;
         }
-        if fits(t) { t } else { 0.0 }
+        if steps < 8 || fits(t) { t } else { 0.0 }
     };
     Some(TorquePair {
         offset,
@@ -173,20 +175,27 @@ fn widest_across(c: &Mat3, u: &Vec3) -> Vec3 {
     if v.norm_squared() > 0.0 { v } else { e1 }
 }
 
-/// The unit direction of largest `vᵀ C v`: power iteration from `C`'s largest column; `None`
-/// when `C` vanishes.
+/// A direction of largest `vᵀ C v / |v|²`, of no particular length: power iteration from `C`'s
+/// largest column, on `C / tr C` (eigenvalues in [0, 1], the largest at least 1/3), so that
+/// eight steps need no normalisation; `None` when `C` vanishes. A cluster of two contacts
+/// (`C` of rank one, `C M = 0`) comes here every call: the largest column is then already the
+/// answer.
 fn widest(c: &Mat3, trace: Real) -> Option<Vec3> {
-    let v = (0..3)
-        .map(|i| c.column(i).into_owned())
-        .max_by(|a, b| a.norm_squared().total_cmp(&b.norm_squared()))?;
-    let mut v = v.try_normalize(1e-9 * trace)?;
-    for _ in 0..8 {
-        match (c * v).try_normalize(1e-12 * trace) {
-            Some(next) => v = next,
-            None => break,
+    let mut v = c.column(0).into_owned();
+    for i in 1..3 {
+        let col = c.column(i);
+        if col.norm_squared() > v.norm_squared() {
+            v = col.into_owned();
         }
     }
-    Some(v)
+    if v.norm_squared() <= (1e-9 * trace) * (1e-9 * trace) {
+        return None;
+    }
+    let step = c * trace.recip();
+    for _ in 0..8 {
+        v = step * v;
+    }
+    (v.norm_squared() > 0.0).then_some(v)
 }
 
 impl Clusterer {
@@ -249,7 +258,13 @@ impl Clusterer {
                 if acc.deepest == usize::MAX || c.depth_m > contacts[acc.deepest].depth_m {
                     acc.deepest = i as usize;
                 }
-                if pairs {
+            }
+            if pairs {
+                // Apart from the sums above, so that each loop's sums stay in registers.
+                for &i in members {
+                    let (c, w) = (&contacts[i as usize], self.weights[i as usize]);
+                    let off = c.p_a - origin;
+                    let push = w * weight(c.depth_m, delta_m) * c.stiffness_share;
                     acc.moment += off.cross(&c.n) * push;
                     let wo = off * w;
                     let q = &mut acc.second;
@@ -265,15 +280,16 @@ impl Clusterer {
             let Some(deepest) = contacts.get(acc.deepest) else {
                 continue; // no contact (not after an assignment; kept for safety)
             };
-            let p_a = acc.p_a / acc.w;
-            let r_a = acc.r_a / acc.w;
-            let d = (acc.d / acc.w).max(-delta_m);
+            let inv_w = acc.w.recip();
+            let p_a = acc.p_a * inv_w;
+            let r_a = acc.r_a * inv_w;
+            let d = (acc.d * inv_w).max(-delta_m);
             self.previous.push((p_a, d));
             let pair = if pairs {
                 // The sums about the local origin, moved to the centroid.
                 let shift = p_a - origin;
                 let couple = acc.moment - shift.cross(&acc.penalty);
-                let q = acc.second.map(|x| x / acc.w);
+                let q = acc.second.map(|x| x * inv_w);
                 let cov = Mat3::new(
                     q[0], q[3], q[4], //
                     q[3], q[1], q[5], //
@@ -288,7 +304,7 @@ impl Clusterer {
                         let along = (c.p_a - p_a).dot(&pair.spread);
                         offset_body += (c.r_a - r_a) * (w * along);
                     }
-                    (pair, offset_body / acc.w)
+                    (pair, offset_body * inv_w)
                 })
             } else {
                 None
