@@ -89,31 +89,45 @@ pub(crate) struct TorquePair {
 /// the contacts have no spread where the offset must lie.
 pub(crate) fn torque_pair(p: &Vec3, m: &Vec3, c: &Mat3, unsigned: Real) -> Option<TorquePair> {
     let trace = c.trace();
-    // Not positive, or NaN: no spread.
-    if trace.is_nan() || trace <= 0.0 {
+    // Not positive (or subnormal, or NaN): no spread.
+    if !(trace >= Real::MIN_POSITIVE) || !trace.is_finite() {
         return None;
     }
-    // The direction of largest spread ⊥ C M (then h = C v ⊥ M); its length does not matter,
-    // since h and the spread below are the same for any multiple of v.
-    let cm = c * m;
-    let v = if cm.norm_squared() > (1e-12 * trace) * (1e-12 * trace) * m.norm_squared() {
-        widest_across(c, &cm)
+    // The directions are found on S = C / tr C (eigenvalues in [0, 1], the largest at least
+    // 1/3) and on unit vectors, so that no product underflows or overflows however far apart
+    // the contacts are or however small the couple is; h = √(tr C) S v / √(vᵀ S v).
+    let inv_trace = trace.recip();
+    let s_c = c * inv_trace;
+    // The direction of largest spread ⊥ C M (then h ⊥ M); its length does not matter, since h
+    // and the spread below are the same for any multiple of v.
+    let sm = s_c * m;
+    let sm_sq = sm.norm_squared();
+    let v = if sm_sq > 1e-24 * m.norm_squared() && sm_sq >= Real::MIN_POSITIVE {
+        widest_across(&s_c, &(sm * sm_sq.sqrt().recip()))
     } else {
-        widest(c, trace)?
+        widest(&s_c, 1.0)?
     };
-    let cv = c * v;
-    let spread_sq = v.dot(&cv);
-    if spread_sq.is_nan() || spread_sq <= 1e-12 * trace * v.norm_squared() {
+    let v = v * v.norm().recip();
+    let sv = s_c * v;
+    let spread_sq = v.dot(&sv);
+    if !(spread_sq > 1e-12) {
         return None;
     }
-    // h = C v / √(vᵀ C v), and h × G = M/2 with G ⊥ h: G = (M × h) / (2 |h|²) =
-    // (M × C v) √(vᵀ C v) / (2 |C v|²); the part of M along h (none, up to rounding) is left
-    // out. The square root and the two reciprocals do not wait for one another.
+    // h = √(tr C) S v / √(vᵀ S v), and h × G = M/2 with G ⊥ h: G = (M × h) / (2 |h|²); the
+    // part of M along h (none, up to rounding) is left out.
     let root = spread_sq.sqrt();
-    let (inv_spread_sq, inv_cv_sq) = (spread_sq.recip(), cv.norm_squared().recip());
-    let scale = root * inv_spread_sq;
-    let offset = cv * scale;
-    let full = m.cross(&cv) * (0.5 * root * inv_cv_sq);
+    let root_trace = trace.sqrt();
+    let offset = sv * (root_trace / root);
+    let full = m.cross(&offset) * (0.5 * offset.norm_squared().recip());
+    let spread = v * (root_trace * root).recip();
+    if !(offset
+        .iter()
+        .chain(&spread)
+        .chain(&full)
+        .all(|x| x.is_finite()))
+    {
+        return None;
+    }
     let half = p * 0.5;
     let size = |t: Real| (half + full * t).norm() + (half - full * t).norm();
     // The springs' shares within the cluster's bound: the largest t ∈ [0, 1] that fits (the
@@ -143,7 +157,7 @@ pub(crate) fn torque_pair(p: &Vec3, m: &Vec3, c: &Mat3, unsigned: Real) -> Optio
     };
     Some(TorquePair {
         offset,
-        spread: v * scale,
+        spread,
         tilt: full * t,
     })
 }
@@ -398,6 +412,35 @@ mod tests {
             // The springs lie within the contacts' root-mean-square spread along h.
             let u = h.normalize();
             prop_assert!(h.norm() * h.norm() <= u.dot(&(c * u)) * (1.0 + 1e-9));
+        }
+    }
+
+    proptest! {
+        #![proptest_config(ProptestConfig::with_cases(2048))]
+
+        /// Whatever the scales of the spread, couple and force (down to contacts nanometres
+        /// apart and couples near rounding), a pair is finite or there is none.
+        #[test]
+        fn a_torque_pair_is_finite_at_any_scale(
+            p in vec3(),
+            m in vec3(),
+            a in prop::array::uniform3(vec3()),
+            spread_exp in -40i32..2,
+            couple_exp in -60i32..2,
+            rank_one in any::<bool>(),
+        ) {
+            let a = Mat3::from_columns(&a);
+            let mut c = a * a.transpose() * (10.0f64).powi(spread_exp);
+            if rank_one {
+                let d = a.column(0).into_owned();
+                c = d * d.transpose() * (10.0f64).powi(spread_exp);
+            }
+            let m = m * (10.0f64).powi(couple_exp);
+            if let Some(pair) = torque_pair(&p, &m, &c, p.norm() * 2.0 + 1e-12) {
+                let finite = |v: &Vec3| v.iter().all(|x| x.is_finite());
+                prop_assert!(finite(&pair.offset) && finite(&pair.spread) && finite(&pair.tilt),
+                    "{pair:?} from c = {c:?}, m = {m:?}");
+            }
         }
     }
 
