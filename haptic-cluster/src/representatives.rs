@@ -90,7 +90,7 @@ pub(crate) struct TorquePair {
 pub(crate) fn torque_pair(p: &Vec3, m: &Vec3, c: &Mat3, unsigned: Real) -> Option<TorquePair> {
     let trace = c.trace();
     // Not positive (or subnormal, or NaN): no spread.
-    if !(trace >= Real::MIN_POSITIVE) || !trace.is_finite() {
+    if !(trace.is_finite() && trace >= Real::MIN_POSITIVE) {
         return None;
     }
     // The directions are found on S = C / tr C (eigenvalues in [0, 1], the largest at least
@@ -110,7 +110,7 @@ pub(crate) fn torque_pair(p: &Vec3, m: &Vec3, c: &Mat3, unsigned: Real) -> Optio
     let v = v * v.norm().recip();
     let sv = s_c * v;
     let spread_sq = v.dot(&sv);
-    if !(spread_sq > 1e-12) {
+    if spread_sq.is_nan() || spread_sq <= 1e-12 {
         return None;
     }
     // h = √(tr C) S v / √(vᵀ S v), and h × G = M/2 with G ⊥ h: G = (M × h) / (2 |h|²); the
