@@ -432,7 +432,7 @@ impl Clusterer {
         while iterations < self.params.max_iterations {
             iterations += 1;
             self.update_centroids();
-            if !self.assign_all(false) {
+            if !self.reassign() {
                 converged = true;
                 break;
             }
@@ -457,17 +457,11 @@ impl Clusterer {
         })
     }
 
-    /// Assigns every contact to its closest centroid (ties: lowest index) and drops clusters left
-    /// empty; records the cost (eq. 28) when asked to. Returns whether any assignment changed
-    /// (always `true` when `first`).
-    ///
-    /// The first pass scans every contact against every centroid. Later passes use Hamerly's
-    /// bounds: each contact keeps an upper bound on the distance to its own centroid and a lower
-    /// bound on the distance to any other; centroid moves loosen them (triangle inequality) and
-    /// only contacts whose bounds cross are scanned again. The result is exactly Lloyd's
-    /// assignment.
-    fn assign_all(&mut self, first: bool) -> bool {
-        let changed = self.scan(first);
+    /// Assigns every contact to its closest centroid again after a centroid update (ties: lowest
+    /// index) and drops clusters left empty; records the cost (eq. 28) when asked to. Returns
+    /// whether any assignment changed.
+    fn reassign(&mut self) -> bool {
+        let changed = self.scan(false);
         self.finish_pass();
         changed
     }
@@ -481,8 +475,12 @@ impl Clusterer {
         self.drop_empty();
     }
 
-    /// One assignment pass (see [`Clusterer::assign_all`]): every contact when `first`, else
-    /// those whose Hamerly bounds cross. Returns whether any assignment changed.
+    /// One assignment pass. The first scans every contact against every centroid. Later passes
+    /// use Hamerly's bounds: each contact keeps an upper bound on the distance to its own
+    /// centroid and a lower bound on the distance to any other; centroid moves loosen them
+    /// (triangle inequality) and only contacts whose bounds cross are scanned again. The result
+    /// is exactly Lloyd's assignment. Returns whether any assignment changed (always `true`
+    /// when `first`).
     fn scan(&mut self, first: bool) -> bool {
         let n = self.points.len();
         self.upper.resize(n, 0.0);
@@ -538,14 +536,19 @@ impl Clusterer {
         changed
     }
 
-    /// Removes clusters with no contact and renumbers the assignment.
-    fn drop_empty(&mut self) {
-        let k = self.centroids.len();
+    /// `count[j]`: how many contacts the assignment gives cluster `j`.
+    fn count_members(&mut self) {
         self.count.clear();
-        self.count.resize(k, 0);
+        self.count.resize(self.centroids.len(), 0);
         for &a in &self.assign {
             self.count[a as usize] += 1;
         }
+    }
+
+    /// Removes clusters with no contact and renumbers the assignment.
+    fn drop_empty(&mut self) {
+        let k = self.centroids.len();
+        self.count_members();
         if self.count.iter().all(|&c| c > 0) {
             return;
         }

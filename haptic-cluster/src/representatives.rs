@@ -105,7 +105,7 @@ pub(crate) fn torque_pair(p: &Vec3, m: &Vec3, c: &Mat3, unsigned: Real) -> Optio
     let v = if sm_sq > 1e-24 * m.norm_squared() && sm_sq >= Real::MIN_POSITIVE {
         widest_across(&s_c, &(sm * sm_sq.sqrt().recip()))
     } else {
-        widest(&s_c, 1.0)?
+        widest(&s_c)?
     };
     let v = v * v.norm().recip();
     let sv = s_c * v;
@@ -162,52 +162,46 @@ pub(crate) fn torque_pair(p: &Vec3, m: &Vec3, c: &Mat3, unsigned: Real) -> Optio
     })
 }
 
-/// A direction `v ⊥ u` of largest `vᵀ C v / |v|²` (`u` not zero), of no particular length:
-/// the larger eigenvector of `C` on the plane across `u`, in closed form and without a square
-/// root of its own but the eigenvalue's.
-fn widest_across(c: &Mat3, u: &Vec3) -> Vec3 {
-    // An orthogonal basis of the plane: e1 = u × (u's smallest axis), e2 = u × e1, with
-    // |e2| = |u| |e1|. In the basis (e1, e2 / |u|), both of length |e1|, the plane's block of
-    // C is B / |e1|² with B = [b11, b12/|u|; b12/|u|, b22/|u|²] (b_ij = e_iᵀ C e_j): the same
-    // eigenvectors as the orthonormal basis gives.
+/// A direction `v ⊥ u` of largest `vᵀ S v / |v|²` (`u` unit), of no particular length: the
+/// larger eigenvector of `S` on the plane across `u`, in closed form.
+fn widest_across(s_c: &Mat3, u: &Vec3) -> Vec3 {
+    // An orthogonal basis of the plane, both of one length: e1 = u × (u's smallest axis),
+    // e2 = u × e1. The plane's block of S in it is B / |e1|² (b_ij = e_iᵀ S e_j), with the
+    // eigenvectors of the orthonormal basis.
     let e1 = u.cross(&Vec3::ith(u.iamin(), 1.0));
     let e2 = u.cross(&e1);
-    let inv_uu = u.norm_squared().recip();
-    let (c1, c2) = (c * e1, c * e2);
-    let (b11, b22, b12) = (e1.dot(&c1), e2.dot(&c2) * inv_uu, e1.dot(&c2));
-    // b12 stands for b12/|u|, whose square is b12² / |u|².
+    let (c1, c2) = (s_c * e1, s_c * e2);
+    let (b11, b22, b12) = (e1.dot(&c1), e2.dot(&c2), e1.dot(&c2));
     let half_gap = 0.5 * (b11 - b22);
-    let lambda = 0.5 * (b11 + b22) + (half_gap * half_gap + b12 * b12 * inv_uu).sqrt();
-    // (λ − b22, b12/|u|) and (b12/|u|, λ − b11) are both eigenvectors in that basis; the longer
-    // is the better conditioned. Back in (e1, e2), up to a positive factor: the first is
-    // (λ − b22) e1 + (b12/|u|²) e2, the second b12 e1 + (λ − b11) e2.
+    let lambda = 0.5 * (b11 + b22) + (half_gap * half_gap + b12 * b12).sqrt();
+    // (λ − b22, b12) and (b12, λ − b11) are both eigenvectors; the longer is the better
+    // conditioned.
     let v = if lambda - b22 >= lambda - b11 {
-        e1 * (lambda - b22) + e2 * (b12 * inv_uu)
+        e1 * (lambda - b22) + e2 * b12
     } else {
         e1 * b12 + e2 * (lambda - b11)
     };
     if v.norm_squared() > 0.0 { v } else { e1 }
 }
 
-/// A direction of largest `vᵀ C v / |v|²`, of no particular length: power iteration from `C`'s
-/// largest column, on `C / tr C` (eigenvalues in [0, 1], the largest at least 1/3), so that
-/// eight steps need no normalisation; `None` when `C` vanishes. A cluster of two contacts
-/// (`C` of rank one, `C M = 0`) comes here every call: the largest column is then already the
-/// answer.
-fn widest(c: &Mat3, trace: Real) -> Option<Vec3> {
-    let mut v = c.column(0).into_owned();
+/// A direction of largest `vᵀ S v / |v|²` for `S = C / tr C` (eigenvalues in [0, 1], the
+/// largest at least 1/3), of no particular length: eight steps of power iteration from `S`'s
+/// largest column, which need no normalisation; `None` when `S` has no column of size. A
+/// cluster of two contacts (`S` of rank one, `S M = 0`) comes here every call: the largest
+/// column is then already the answer.
+fn widest(s_c: &Mat3) -> Option<Vec3> {
+    let mut v = s_c.column(0).into_owned();
     for i in 1..3 {
-        let col = c.column(i);
+        let col = s_c.column(i);
         if col.norm_squared() > v.norm_squared() {
             v = col.into_owned();
         }
     }
-    if v.norm_squared() <= (1e-9 * trace) * (1e-9 * trace) {
+    if v.norm_squared() <= 1e-18 {
         return None;
     }
-    let step = c * trace.recip();
     for _ in 0..8 {
-        v = step * v;
+        v = s_c * v;
     }
     (v.norm_squared() > 0.0).then_some(v)
 }

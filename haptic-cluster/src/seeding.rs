@@ -63,11 +63,7 @@ impl Clusterer {
 
     /// Whether the last assignment left a cluster without a contact.
     pub(crate) fn has_empty_cluster(&mut self) -> bool {
-        self.count.clear();
-        self.count.resize(self.centroids.len(), 0);
-        for &a in &self.assign {
-            self.count[a as usize] += 1;
-        }
+        self.count_members();
         self.count.contains(&0)
     }
 
