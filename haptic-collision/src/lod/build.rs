@@ -19,7 +19,8 @@ use rayon::prelude::*;
 
 use super::MAX_PIECE_VERTICES;
 use super::moments::{SurfaceMoments, surface_moments};
-use super::split::{SplitScratch, Triangles};
+use super::split::Triangles;
+use super::topology::{PARALLEL_TOPOLOGY_MIN, Place, blank_node, topology};
 use crate::geometry::{
     closest_point_on_polygon_2d, plane_basis, point_polygon_distance, triangle_normal,
 };
@@ -80,26 +81,26 @@ pub struct Hierarchy {
 
 /// A small convex polygon in a node's plane (2-D, fixed capacity, CCW).
 #[derive(Debug, Clone, Copy)]
-struct Poly2 {
-    pts: [[Real; 2]; POLY2_CAP],
+struct Poly2<const CAP: usize = POLY2_CAP> {
+    pts: [[Real; 2]; CAP],
     len: usize,
 }
 
 /// Capacity of [`Poly2`]: a hexagon clipped by two hexagons' half-planes stays far below it.
 pub(crate) const POLY2_CAP: usize = 24;
 
-impl Default for Poly2 {
+impl<const CAP: usize> Default for Poly2<CAP> {
     fn default() -> Self {
         Self {
-            pts: [[0.0; 2]; POLY2_CAP],
+            pts: [[0.0; 2]; CAP],
             len: 0,
         }
     }
 }
 
-impl Poly2 {
+impl<const CAP: usize> Poly2<CAP> {
     fn push(&mut self, p: [Real; 2]) {
-        if self.len < POLY2_CAP {
+        if self.len < CAP {
             self.pts[self.len] = p;
             self.len += 1;
         }
@@ -112,7 +113,10 @@ impl Poly2 {
     fn signed_area(&self) -> Real {
         let mut a = 0.0;
         for i in 0..self.len {
-            let (p, q) = (self.pts[i], self.pts[(i + 1) % self.len]);
+            let (p, q) = (
+                self.pts[i],
+                self.pts[if i + 1 == self.len { 0 } else { i + 1 }],
+            );
             a += p[0] * q[1] - p[1] * q[0];
         }
         0.5 * a
@@ -122,13 +126,26 @@ impl Poly2 {
         self.pts[..self.len].reverse();
     }
 
-    /// The part on the left of the directed line `a → b` (closed half-plane).
-    fn clip(&self, a: &[Real; 2], b: &[Real; 2]) -> Self {
+    /// Makes `self` a copy of `other` (its points only).
+    fn assign(&mut self, other: &Self) {
+        self.pts[..other.len].copy_from_slice(other.as_slice());
+        self.len = other.len;
+    }
+
+    /// Writes into `out` the part of `self` on the left of the directed line `a → b` (closed
+    /// half-plane).
+    fn clip_into(&self, a: &[Real; 2], b: &[Real; 2], out: &mut Self) {
         let side = |p: &[Real; 2]| (b[0] - a[0]) * (p[1] - a[1]) - (b[1] - a[1]) * (p[0] - a[0]);
-        let mut out = Self::default();
-        for i in 0..self.len {
-            let (p, q) = (self.pts[i], self.pts[(i + 1) % self.len]);
-            let (sp, sq) = (side(&p), side(&q));
+        out.len = 0;
+        let n = self.len;
+        if n == 0 {
+            return;
+        }
+        let mut p = self.pts[0];
+        let mut sp = side(&p);
+        for i in 0..n {
+            let q = self.pts[if i + 1 == n { 0 } else { i + 1 }];
+            let sq = side(&q);
             if sp >= 0.0 {
                 out.push(p);
             }
@@ -136,18 +153,23 @@ impl Poly2 {
                 let t = sp / (sp - sq);
                 out.push([p[0] + t * (q[0] - p[0]), p[1] + t * (q[1] - p[1])]);
             }
+            (p, sp) = (q, sq);
         }
-        out
     }
 }
+
+/// Scratch of [`final_deviation`]: the candidates, the walk's stack, the candidates' gaps.
+type DeviationScratch = (Vec<usize>, Vec<usize>, Vec<(Real, usize, usize)>);
 
 /// Scratch buffers reused while building.
 #[derive(Default)]
 struct Scratch {
     pts: Vec<[Real; 2]>,
-    /// Corners in the node's plane frame `(u, w, height)`, sorted, without duplicates.
+    /// Corners in the node's plane frame `(u, w, height)`, each vertex once.
     corners: Vec<[Real; 3]>,
     hull: Vec<[Real; 2]>,
+    /// By mesh vertex: the last node whose corners took it (`u32::MAX` for none yet).
+    taken_by: Vec<u32>,
 }
 
 impl Hierarchy {
@@ -168,41 +190,23 @@ impl Hierarchy {
             centroids: &centroids,
             area_normals: &area_normals,
         };
-        let mut split_scratch = SplitScratch::default();
         let mut perm: Vec<u32> = (0..n as u32).collect();
-        let mut nodes: Vec<Node> = Vec::with_capacity(2 * n);
-        let mut ranges: Vec<(u32, u32)> = Vec::with_capacity(2 * n);
         // Topology, in depth-first pre-order: children come after their parent.
-        let mut todo: Vec<(u32, u32, Option<usize>, usize)> = vec![(0, n as u32, None, 1)];
-        let mut height = 0;
-        while let Some((lo, hi, parent, level)) = todo.pop() {
-            height = height.max(level);
-            let index = nodes.len();
-            if let Some(p) = parent {
-                nodes[p].right = index as u32;
-            }
-            nodes.push(Node {
-                center: Vec3::zeros(),
-                radius: 0.0,
-                normal: Vec3::z(),
-                plane_point: Vec3::zeros(),
-                half_thickness: 0.0,
-                deviation: 0.0,
-                right: LEAF,
-                triangle: perm[lo as usize],
-                piece_start: 0,
-                piece_len: 0,
-                triangles: hi - lo,
-            });
-            ranges.push((lo, hi));
-            if hi - lo > 1 {
-                let slice = &mut perm[lo as usize..hi as usize];
-                let m = lo + triangles.split(slice, &mut split_scratch) as u32;
-                // Right is processed after left (stack): push right first, remember the parent.
-                todo.push((m, hi, Some(index), level + 1));
-                todo.push((lo, m, None, level + 1));
-            }
-        }
+        let mut nodes = vec![blank_node(0, 0); 2 * n - 1];
+        let mut ranges: Vec<(u32, u32)> = vec![(0, 0); 2 * n - 1];
+        let at = Place {
+            lo: 0,
+            base: 0,
+            level: 1,
+        };
+        let height = topology(
+            &triangles,
+            &mut perm,
+            &mut nodes,
+            &mut ranges,
+            at,
+            PARALLEL_TOPOLOGY_MIN,
+        );
         // Pass 1 (any order, in parallel): bounds, plane, slab, piece and the surface → piece
         // deviation.
         type Piece = ([Vec3; MAX_PIECE_VERTICES], usize);
@@ -224,7 +228,8 @@ impl Hierarchy {
                         node.deviation = 0.0;
                         local.extend_from_slice(t);
                     } else {
-                        fill_piece(&mut node, node_tris, &tris, scratch, local);
+                        let stamp = index as u32;
+                        fill_piece(&mut node, node_tris, &tris, mesh, stamp, scratch, local);
                     }
                     let mut verts = [Vec3::zeros(); MAX_PIECE_VERTICES];
                     verts[..local.len()].copy_from_slice(local);
@@ -246,11 +251,11 @@ impl Hierarchy {
             let done: Vec<(usize, Real)> = order[first..end]
                 .par_iter()
                 .map_init(
-                    || (Vec::new(), Vec::new()),
-                    |(cands, walk): &mut (Vec<usize>, Vec<usize>), &index| {
+                    || (Vec::new(), Vec::new(), Vec::new()),
+                    |(cands, walk, gaps): &mut DeviationScratch, &index| {
                         (
                             index,
-                            final_deviation(index, &nodes, &pieces, &count, cands, walk),
+                            final_deviation(index, &nodes, &pieces, &count, cands, walk, gaps),
                         )
                     },
                 )
@@ -420,6 +425,8 @@ fn fill_piece(
     node: &mut Node,
     node_tris: &[u32],
     tris: &[[Vec3; 3]],
+    mesh: &TriMesh,
+    stamp: u32,
     scratch: &mut Scratch,
     local: &mut Vec<Vec3>,
 ) {
@@ -450,22 +457,24 @@ fn fill_piece(
     let o = node.center;
     scratch.corners.clear();
     let (mut hmin, mut hmax) = (Real::INFINITY, Real::NEG_INFINITY);
+    let vertices = mesh.vertices();
+    if scratch.taken_by.len() != vertices.len() {
+        scratch.taken_by.clear();
+        scratch.taken_by.resize(vertices.len(), u32::MAX);
+    }
     for &t in node_tris {
-        for v in &tris[t as usize] {
-            let d = v - o;
+        // A vertex is a corner of several triangles: keep it once.
+        for &k in &mesh.triangles()[t as usize] {
+            if std::mem::replace(&mut scratch.taken_by[k as usize], stamp) == stamp {
+                continue;
+            }
+            let d = vertices[k as usize] - o;
             let h = n.dot(&d);
             hmin = hmin.min(h);
             hmax = hmax.max(h);
             scratch.corners.push([u.dot(&d), w.dot(&d), h]);
         }
     }
-    // A vertex is a corner of several triangles: keep it once.
-    scratch.corners.sort_unstable_by(|a, b| {
-        a[0].total_cmp(&b[0])
-            .then(a[1].total_cmp(&b[1]))
-            .then(a[2].total_cmp(&b[2]))
-    });
-    scratch.corners.dedup();
     let hmid = 0.5 * (hmin + hmax);
     node.normal = n;
     node.plane_point = o + n * hmid;
@@ -510,6 +519,7 @@ fn final_deviation(
     count: &(dyn Fn(usize) -> u32 + Sync),
     cands: &mut Vec<usize>,
     walk: &mut Vec<usize>,
+    gaps: &mut Vec<(Real, usize, usize)>,
 ) -> Real {
     let node = nodes[index];
     if !node.deviation.is_finite() {
@@ -532,14 +542,22 @@ fn final_deviation(
         }
     }
     if cands.len() > MAX_CANDIDATES {
-        // The nearest ones (any subset keeps the bound rigorous, only looser).
+        // The nearest ones (any subset keeps the bound rigorous, only looser), nearest first,
+        // ties in walk order.
         let gap = |m: usize| (nodes[m].center - node.center).norm() - nodes[m].radius;
-        cands.sort_by(|&a, &b| gap(a).total_cmp(&gap(b)));
-        cands.truncate(MAX_CANDIDATES);
+        gaps.clear();
+        gaps.extend(cands.iter().enumerate().map(|(k, &m)| (gap(m), k, m)));
+        let by_gap = |a: &(Real, usize, usize), b: &(Real, usize, usize)| {
+            a.0.total_cmp(&b.0).then(a.1.cmp(&b.1))
+        };
+        gaps.select_nth_unstable_by(MAX_CANDIDATES - 1, by_gap);
+        gaps[..MAX_CANDIDATES].sort_unstable_by(by_gap);
+        cands.clear();
+        cands.extend(gaps[..MAX_CANDIDATES].iter().map(|g| g.2));
     }
     let s_in = piece_to_surface(&node, &pieces[index], cands, nodes, pieces);
     let cap = (1.0 + std::f64::consts::SQRT_2) * node.radius;
-    node.deviation.max(s_in).min(cap)
+    s_in.min(cap)
 }
 
 /// Most neighbouring nodes used to bound a piece's distance to the surface.
@@ -548,13 +566,17 @@ pub(crate) const MAX_CANDIDATES: usize = 10;
 /// Most convex regions tracked while cutting a piece along its neighbours' pieces.
 pub(crate) const MAX_REGIONS: usize = 32;
 
-/// Upper bound on `sup_{q ∈ piece} dist(q, S)`, `S` the whole mesh surface.
+/// Upper bound on `sup_{q ∈ piece} dist(q, S)`, `S` the whole mesh surface, or `node.deviation`
+/// (the surface → piece part) when that is larger: the larger of the two is the two-sided
+/// deviation, so a region whose bound is already below `node.deviation` needs no tighter one.
 ///
 /// For any node `m`, `dist(q, S) <= dist(q, piece_m) + s_m` (its two-sided deviation) and
 /// `dist(q, S) <= |q − centre_m| + r_m`. Both are convex in `q`, so over a convex region their
 /// maximum is at a vertex. The piece (in 2-D, in its plane) is cut along the projections of the
 /// candidates' pieces, best-aligned first: each region above candidate `m` is bounded with `m`'s
-/// term, and what no candidate covers with the smallest of all terms' vertex maxima.
+/// term, and what no candidate covers with the smallest of all terms' vertex maxima. A region
+/// whose vertices the next candidate's term already bounds by the running maximum is dropped
+/// before it is cut (nothing in it can raise the maximum).
 fn piece_to_surface(
     node: &Node,
     own: &([Vec3; MAX_PIECE_VERTICES], usize),
@@ -586,19 +608,19 @@ fn piece_to_surface(
         }
         t
     };
-    let mut q_poly = Poly2::default();
+    let mut q_poly = Poly2::<POLY2_CAP>::default();
     for v in &own.0[..own.1] {
         q_poly.push(to2(v));
     }
     // Candidates with a usable projected piece, best first (closest to this plane).
-    let mut usable: Vec<(Real, usize, Poly2)> = Vec::with_capacity(cands.len());
+    let mut usable: Vec<(Real, usize, Poly2<MAX_PIECE_VERTICES>)> = Vec::with_capacity(cands.len());
     for &m in cands {
         let nm = &nodes[m];
         let (verts, len) = &pieces[m];
         if !nm.deviation.is_finite() || *len < 3 {
             continue;
         }
-        let mut p = Poly2::default();
+        let mut p = Poly2::<MAX_PIECE_VERTICES>::default();
         let mut off: Real = 0.0;
         for v in &verts[..*len] {
             p.push(to2(v));
@@ -615,10 +637,13 @@ fn piece_to_surface(
     }
     usable.sort_by(|a, b| a.0.total_cmp(&b.0));
     // min over candidates of (max over the region's vertices of the candidate's term), below
-    // `start`.
-    let best_term = |verts: &[[Real; 2]], start: Real| -> Real {
+    // `start`; any value at most `enough` once one is found (the caller takes the max with it).
+    let best_term = |verts: &[[Real; 2]], start: Real, enough: Real| -> Real {
         let mut best = start;
         for &m in cands {
+            if best <= enough {
+                break;
+            }
             let mut worst: Real = 0.0;
             for v in verts {
                 worst = worst.max(term(m, &to3(v), best));
@@ -630,19 +655,39 @@ fn piece_to_surface(
         }
         best
     };
-    let mut s_in: Real = 0.0;
+    let mut s_in: Real = node.deviation;
     let mut rest: Vec<Poly2> = vec![q_poly];
     let mut next: Vec<Poly2> = Vec::new();
+    // Clipping buffers, ping-ponged by reference.
+    let (mut buf_a, mut buf_b, mut outside) =
+        (Poly2::default(), Poly2::default(), Poly2::default());
     for (_, m, p) in &usable {
         if rest.is_empty() {
             break;
         }
         next.clear();
         for piece in &rest {
+            // A region that m's term bounds by `s_in` as a whole is done.
+            let mut whole: Real = 0.0;
+            for v in piece.as_slice() {
+                whole = whole.max(term(*m, &to3(v), s_in));
+                if whole > s_in {
+                    break;
+                }
+            }
+            if whole <= s_in {
+                continue;
+            }
             // The part above candidate m.
-            let mut inside = *piece;
+            let (mut inside, mut spare) = (&mut buf_a, &mut buf_b);
+            inside.assign(piece);
             for i in 0..p.len {
-                inside = inside.clip(&p.pts[i], &p.pts[(i + 1) % p.len]);
+                inside.clip_into(
+                    &p.pts[i],
+                    &p.pts[if i + 1 == p.len { 0 } else { i + 1 }],
+                    spare,
+                );
+                std::mem::swap(&mut inside, &mut spare);
                 if inside.len < 3 {
                     break;
                 }
@@ -657,18 +702,20 @@ fn piece_to_surface(
             }
             if b > s_in {
                 // Slivers left by rounding can land on a poor candidate: try every term.
-                b = b.min(best_term(inside.as_slice(), b));
+                b = b.min(best_term(inside.as_slice(), b, s_in));
                 s_in = s_in.max(b);
             }
             // The rest of the piece, as disjoint convex parts.
-            let mut remaining = *piece;
+            let (mut remaining, mut spare) = (&mut buf_a, &mut buf_b);
+            remaining.assign(piece);
             for i in 0..p.len {
-                let (p0, p1) = (p.pts[i], p.pts[(i + 1) % p.len]);
-                let outside = remaining.clip(&p1, &p0);
+                let (p0, p1) = (p.pts[i], p.pts[if i + 1 == p.len { 0 } else { i + 1 }]);
+                remaining.clip_into(&p1, &p0, &mut outside);
                 if outside.len >= 3 && outside.signed_area() > 0.0 {
                     next.push(outside);
                 }
-                remaining = remaining.clip(&p0, &p1);
+                remaining.clip_into(&p0, &p1, spare);
+                std::mem::swap(&mut remaining, &mut spare);
                 if remaining.len < 3 {
                     break;
                 }
@@ -681,7 +728,7 @@ fn piece_to_surface(
     }
     // Whatever is left: the best single term per region.
     for r in &rest {
-        s_in = s_in.max(best_term(r.as_slice(), Real::INFINITY));
+        s_in = s_in.max(best_term(r.as_slice(), Real::INFINITY, s_in));
     }
     s_in
 }

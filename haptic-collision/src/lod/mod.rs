@@ -55,6 +55,7 @@ mod moments;
 pub(crate) mod query;
 mod split;
 mod stopping;
+mod topology;
 
 use std::time::Instant;
 
