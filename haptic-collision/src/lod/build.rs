@@ -126,6 +126,19 @@ impl<const CAP: usize> Poly2<CAP> {
         self.pts[..self.len].reverse();
     }
 
+    /// Whether `other` lies entirely outside one of this polygon's edges (then they do not
+    /// overlap).
+    fn beside<const N: usize>(&self, other: &Poly2<N>) -> bool {
+        let n = self.len;
+        (0..n).any(|i| {
+            let (a, b) = (self.pts[i], self.pts[if i + 1 == n { 0 } else { i + 1 }]);
+            other
+                .as_slice()
+                .iter()
+                .all(|p| (b[0] - a[0]) * (p[1] - a[1]) - (b[1] - a[1]) * (p[0] - a[0]) < 0.0)
+        })
+    }
+
     /// Makes `self` a copy of `other` (its points only).
     fn assign(&mut self, other: &Self) {
         self.pts[..other.len].copy_from_slice(other.as_slice());
@@ -678,21 +691,30 @@ fn piece_to_surface(
             if whole <= s_in {
                 continue;
             }
-            // The part above candidate m.
+            // The part above candidate m, and the rest of the piece as disjoint convex parts:
+            // the same half-planes cut both, and what is left after the last is the part above.
+            if p.beside(piece) {
+                next.push(*piece);
+                continue;
+            }
+            let mark = next.len();
             let (mut inside, mut spare) = (&mut buf_a, &mut buf_b);
             inside.assign(piece);
             for i in 0..p.len {
-                inside.clip_into(
-                    &p.pts[i],
-                    &p.pts[if i + 1 == p.len { 0 } else { i + 1 }],
-                    spare,
-                );
+                let (p0, p1) = (p.pts[i], p.pts[if i + 1 == p.len { 0 } else { i + 1 }]);
+                inside.clip_into(&p1, &p0, &mut outside);
+                if outside.len >= 3 && outside.signed_area() > 0.0 {
+                    next.push(outside);
+                }
+                inside.clip_into(&p0, &p1, spare);
                 std::mem::swap(&mut inside, &mut spare);
                 if inside.len < 3 {
                     break;
                 }
             }
             if inside.len < 3 {
+                // Nothing above m: the piece goes on whole.
+                next.truncate(mark);
                 next.push(*piece);
                 continue;
             }
@@ -704,21 +726,6 @@ fn piece_to_surface(
                 // Slivers left by rounding can land on a poor candidate: try every term.
                 b = b.min(best_term(inside.as_slice(), b, s_in));
                 s_in = s_in.max(b);
-            }
-            // The rest of the piece, as disjoint convex parts.
-            let (mut remaining, mut spare) = (&mut buf_a, &mut buf_b);
-            remaining.assign(piece);
-            for i in 0..p.len {
-                let (p0, p1) = (p.pts[i], p.pts[if i + 1 == p.len { 0 } else { i + 1 }]);
-                remaining.clip_into(&p1, &p0, &mut outside);
-                if outside.len >= 3 && outside.signed_area() > 0.0 {
-                    next.push(outside);
-                }
-                remaining.clip_into(&p0, &p1, spare);
-                std::mem::swap(&mut remaining, &mut spare);
-                if remaining.len < 3 {
-                    break;
-                }
             }
         }
         std::mem::swap(&mut rest, &mut next);
