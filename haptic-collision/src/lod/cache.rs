@@ -98,9 +98,9 @@ pub fn hierarchy_key(mesh: &TriMesh) -> u64 {
     h.eat(&FORMAT_VERSION.to_le_bytes());
     for c in [
         super::MAX_PIECE_VERTICES,
-        super::build::POLY2_CAP,
-        super::build::MAX_CANDIDATES,
-        super::build::MAX_REGIONS,
+        super::deviation::POLY2_CAP,
+        super::deviation::MAX_CANDIDATES,
+        super::deviation::MAX_REGIONS,
         super::split::MIN_SHARE,
         mesh.vertices().len(),
         mesh.triangles().len(),

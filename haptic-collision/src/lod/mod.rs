@@ -51,6 +51,7 @@
 
 mod build;
 mod cache;
+mod deviation;
 mod moments;
 pub(crate) mod query;
 mod split;
