@@ -27,10 +27,10 @@ const MAGIC: &[u8; 10] = b"HAPTICLOD\0";
 pub const FORMAT_VERSION: u32 = 1;
 /// What the build does, in words: part of every key, so that a change to the build (a new
 /// bound, a new piece) makes old files another build's. Change it with the build.
-const BUILD: &str = "haptic-collision lod build 3: median split on centroids or cut along the \
+const BUILD: &str = "haptic-collision lod build 4: median split on centroids or cut along the \
                      normals' spread (split.rs), planar convex pieces of at most \
                      MAX_PIECE_VERTICES, slab and deviation bounds (piece → surface regions \
-                     dropped once bounded)";
+                     dropped once bounded, candidates' distances in their own planes)";
 
 /// A saved hierarchy could not be read.
 #[derive(Debug, thiserror::Error)]

@@ -6,7 +6,7 @@ use haptic_core::{Real, Vec3};
 
 use super::MAX_PIECE_VERTICES;
 use super::build::Node;
-use crate::geometry::{plane_basis, point_polygon_distance};
+use crate::geometry::{closest_point_on_polygon_2d, plane_basis};
 
 /// A small convex polygon in a node's plane (2-D, fixed capacity, CCW).
 #[derive(Debug, Clone, Copy)]
@@ -159,6 +159,79 @@ pub(crate) const MAX_CANDIDATES: usize = 10;
 /// Most convex regions tracked while cutting a piece along its neighbours' pieces.
 pub(crate) const MAX_REGIONS: usize = 32;
 
+/// A candidate node as [`piece_to_surface`] reads it: its sphere, and its piece in its own plane
+/// (the basis `u, w` of its normal `n`, coordinates about the piece's first vertex `origin`).
+#[derive(Debug, Clone, Copy)]
+struct CandidateFrame {
+    center: Vec3,
+    radius: Real,
+    /// The node's two-sided deviation; infinite (with no piece) when it has none.
+    deviation: Real,
+    origin: Vec3,
+    n: Vec3,
+    u: Vec3,
+    w: Vec3,
+    piece: [[Real; 2]; MAX_PIECE_VERTICES],
+    /// Vertices of `piece`; below 3, only the sphere bound is used.
+    len: usize,
+}
+
+impl CandidateFrame {
+    const NONE: Self = Self {
+        center: Vec3::new(0.0, 0.0, 0.0),
+        radius: Real::INFINITY,
+        deviation: Real::INFINITY,
+        origin: Vec3::new(0.0, 0.0, 0.0),
+        n: Vec3::new(0.0, 0.0, 0.0),
+        u: Vec3::new(0.0, 0.0, 0.0),
+        w: Vec3::new(0.0, 0.0, 0.0),
+        piece: [[0.0; 2]; MAX_PIECE_VERTICES],
+        len: 0,
+    };
+
+    fn of(node: &Node, (verts, len): &([Vec3; MAX_PIECE_VERTICES], usize)) -> Self {
+        let mut frame = Self {
+            center: node.center,
+            radius: node.radius,
+            deviation: node.deviation,
+            ..Self::NONE
+        };
+        if node.deviation.is_finite() && *len >= 3 {
+            let (u, w) = plane_basis(&node.normal);
+            let origin = verts[0];
+            for (p, v) in frame.piece.iter_mut().zip(&verts[..*len]) {
+                let d = v - origin;
+                *p = [u.dot(&d), w.dot(&d)];
+            }
+            frame.origin = origin;
+            frame.n = node.normal;
+            frame.u = u;
+            frame.w = w;
+            frame.len = *len;
+        }
+        frame
+    }
+
+    /// The smaller of `|q − centre| + r` and `dist(q, piece) + s` when it is below `limit`, else
+    /// some value at least `limit`: both bound `dist(q, S)`. The piece is planar and CCW about
+    /// `n`, so its distance is the 2-D distance in its plane and the height above it, combined.
+    #[inline]
+    fn term(&self, q: &Vec3, limit: Real) -> Real {
+        let t = (q - self.center).norm() + self.radius;
+        if self.len >= 3 {
+            let d = q - self.origin;
+            let h = self.n.dot(&d);
+            if h.abs() + self.deviation < t.min(limit) {
+                let p = [self.u.dot(&d), self.w.dot(&d)];
+                let c = closest_point_on_polygon_2d(p, &self.piece[..self.len]);
+                let (dx, dy) = (p[0] - c[0], p[1] - c[1]);
+                return t.min((h * h + dx * dx + dy * dy).sqrt() + self.deviation);
+            }
+        }
+        t
+    }
+}
+
 /// Upper bound on `sup_{q ∈ piece} dist(q, S)`, `S` the whole mesh surface, or `node.deviation`
 /// (the surface → piece part) when that is larger: the larger of the two is the two-sided
 /// deviation, so a region whose bound is already below `node.deviation` needs no tighter one.
@@ -185,29 +258,25 @@ fn piece_to_surface(
         [u.dot(&d), w.dot(&d)]
     };
     let to3 = |p: &[Real; 2]| o + u * p[0] + w * p[1];
-    // `term(m, q, limit)`: the smaller of m's two bounds at q when it is below `limit`, else some
-    // value at least `limit`. The polygon distance (the costly part) is skipped when its lower
-    // bound, the distance to m's plane, already reaches the sphere bound or `limit`: the result
-    // is then the same as with it.
-    let term = |m: usize, q: &Vec3, limit: Real| -> Real {
-        let nm = &nodes[m];
-        let t = (q - nm.center).norm() + nm.radius;
-        let (verts, len) = &pieces[m];
-        if nm.deviation.is_finite() && *len >= 3 {
-            let plane = nm.normal.dot(&(q - verts[0])).abs() + nm.deviation;
-            if plane < t.min(limit) {
-                return t.min(point_polygon_distance(q, &verts[..*len], &nm.normal) + nm.deviation);
-            }
-        }
-        t
-    };
+    // Each candidate's piece in its own plane, once: the distance to it is then a 2-D closest
+    // point and the height above the plane.
+    let mut frames = [CandidateFrame::NONE; MAX_CANDIDATES];
+    for (frame, &m) in frames.iter_mut().zip(cands) {
+        *frame = CandidateFrame::of(&nodes[m], &pieces[m]);
+    }
+    let frames = &frames[..cands.len().min(MAX_CANDIDATES)];
+    // `term(k, q, limit)`: the smaller of candidate k's two bounds at q when it is below
+    // `limit`, else some value at least `limit`. The polygon distance (the costly part) is
+    // skipped when its lower bound, the distance to k's plane, already reaches the sphere bound
+    // or `limit`: the result is then the same as with it.
+    let term = |k: usize, q: &Vec3, limit: Real| frames[k].term(q, limit);
     let mut q_poly = Poly2::<POLY2_CAP>::default();
     for v in &own.0[..own.1] {
         q_poly.push(to2(v));
     }
     // Candidates with a usable projected piece, best first (closest to this plane).
     let mut usable: Vec<(Real, usize, Poly2<MAX_PIECE_VERTICES>)> = Vec::with_capacity(cands.len());
-    for &m in cands {
+    for (k, &m) in cands.iter().enumerate().take(MAX_CANDIDATES) {
         let nm = &nodes[m];
         let (verts, len) = &pieces[m];
         if !nm.deviation.is_finite() || *len < 3 {
@@ -226,20 +295,20 @@ fn piece_to_surface(
         if area < 0.0 {
             p.reverse();
         }
-        usable.push((off + nm.deviation, m, p));
+        usable.push((off + nm.deviation, k, p));
     }
     usable.sort_by(|a, b| a.0.total_cmp(&b.0));
     // min over candidates of (max over the region's vertices of the candidate's term), below
     // `start`; any value at most `enough` once one is found (the caller takes the max with it).
     let best_term = |verts: &[[Real; 2]], start: Real, enough: Real| -> Real {
         let mut best = start;
-        for &m in cands {
+        for k in 0..frames.len() {
             if best <= enough {
                 break;
             }
             let mut worst: Real = 0.0;
             for v in verts {
-                worst = worst.max(term(m, &to3(v), best));
+                worst = worst.max(term(k, &to3(v), best));
                 if worst >= best {
                     break;
                 }
@@ -254,7 +323,7 @@ fn piece_to_surface(
     // Clipping buffers, ping-ponged by reference.
     let (mut buf_a, mut buf_b, mut outside) =
         (Poly2::default(), Poly2::default(), Poly2::default());
-    for (_, m, p) in &usable {
+    for (_, k, p) in &usable {
         if rest.is_empty() {
             break;
         }
@@ -263,7 +332,7 @@ fn piece_to_surface(
             // A region that m's term bounds by `s_in` as a whole is done.
             let mut whole: Real = 0.0;
             for v in piece.as_slice() {
-                whole = whole.max(term(*m, &to3(v), s_in));
+                whole = whole.max(term(*k, &to3(v), s_in));
                 if whole > s_in {
                     break;
                 }
@@ -300,7 +369,7 @@ fn piece_to_surface(
             }
             let mut b: Real = 0.0;
             for v in inside.as_slice() {
-                b = b.max(term(*m, &to3(v), Real::INFINITY));
+                b = b.max(term(*k, &to3(v), Real::INFINITY));
             }
             if b > s_in {
                 // Slivers left by rounding can land on a poor candidate: try every term.
