@@ -20,8 +20,8 @@ use rayon::prelude::*;
 use super::MAX_PIECE_VERTICES;
 use super::deviation::{DeviationScratch, final_deviation};
 use super::moments::{SurfaceMoments, surface_moments};
-use super::split::Triangles;
-use super::topology::{PARALLEL_TOPOLOGY_MIN, Place, blank_node, topology};
+use super::split::TriangleData;
+use super::topology::{PARALLEL_TOPOLOGY_MIN, Tree};
 use crate::geometry::{closest_point_on_polygon_2d, plane_basis, triangle_normal};
 use crate::mesh::TriMesh;
 
@@ -93,37 +93,16 @@ impl Hierarchy {
     /// Builds the hierarchy of `mesh` (mesh frame).
     pub fn build(mesh: &TriMesh) -> Self {
         let start = Instant::now();
-        let tris: Vec<[Vec3; 3]> = (0..mesh.triangles().len())
-            .map(|t| mesh.triangle(t))
-            .collect();
+        let data = TriangleData::of(mesh);
+        let tris = &data.corners;
         let n = tris.len();
-        let centroids: Vec<Vec3> = tris.iter().map(|t| (t[0] + t[1] + t[2]) / 3.0).collect();
-        let area_normals: Vec<Vec3> = tris
-            .iter()
-            .map(|t| (t[1] - t[0]).cross(&(t[2] - t[0])))
-            .collect();
-        let triangles = Triangles {
-            corners: &tris,
-            centroids: &centroids,
-            area_normals: &area_normals,
-        };
-        let mut perm: Vec<u32> = (0..n as u32).collect();
         // Topology, in depth-first pre-order: children come after their parent.
-        let mut nodes = vec![blank_node(0, 0); 2 * n - 1];
-        let mut ranges: Vec<(u32, u32)> = vec![(0, 0); 2 * n - 1];
-        let at = Place {
-            lo: 0,
-            base: 0,
-            level: 1,
-        };
-        let height = topology(
-            &triangles,
-            &mut perm,
-            &mut nodes,
-            &mut ranges,
-            at,
-            PARALLEL_TOPOLOGY_MIN,
-        );
+        let Tree {
+            nodes,
+            ranges,
+            perm,
+            height,
+        } = Tree::build(&data.view(), PARALLEL_TOPOLOGY_MIN);
         // Pass 1 (any order, in parallel): bounds, plane, slab, piece and the surface → piece
         // deviation.
         type Piece = ([Vec3; MAX_PIECE_VERTICES], usize);
@@ -136,7 +115,7 @@ impl Hierarchy {
                     let node_tris = &perm[lo as usize..hi as usize];
                     local.clear();
                     let mut node = nodes[index];
-                    fill_bounds(&mut node, node_tris, &tris);
+                    fill_bounds(&mut node, node_tris, tris);
                     if node.is_leaf() {
                         let t = &tris[node.triangle as usize];
                         node.normal = triangle_normal(t).unwrap_or_else(Vec3::z);
@@ -146,7 +125,7 @@ impl Hierarchy {
                         local.extend_from_slice(t);
                     } else {
                         let stamp = index as u32;
-                        fill_piece(&mut node, node_tris, &tris, mesh, stamp, scratch, local);
+                        fill_piece(&mut node, node_tris, tris, mesh, stamp, scratch, local);
                     }
                     let mut verts = [Vec3::zeros(); MAX_PIECE_VERTICES];
                     verts[..local.len()].copy_from_slice(local);

@@ -171,6 +171,46 @@ impl Triangles<'_> {
     }
 }
 
+/// What the split reads of a mesh's triangles, owned (the hierarchy's build and tests borrow it
+/// as [`Triangles`]).
+#[derive(Debug, Clone)]
+pub(super) struct TriangleData {
+    /// The three corners of each triangle.
+    pub corners: Vec<[Vec3; 3]>,
+    /// The centroids.
+    pub centroids: Vec<Vec3>,
+    /// `(b − a) × (c − a)` of each.
+    pub area_normals: Vec<Vec3>,
+}
+
+impl TriangleData {
+    /// The triangles of `mesh`, by source index.
+    pub(super) fn of(mesh: &crate::mesh::TriMesh) -> Self {
+        let corners: Vec<[Vec3; 3]> = (0..mesh.triangles().len())
+            .map(|t| mesh.triangle(t))
+            .collect();
+        let centroids = corners.iter().map(|t| (t[0] + t[1] + t[2]) / 3.0).collect();
+        let area_normals = corners
+            .iter()
+            .map(|t| (t[1] - t[0]).cross(&(t[2] - t[0])))
+            .collect();
+        Self {
+            corners,
+            centroids,
+            area_normals,
+        }
+    }
+
+    /// The borrowed view the split reads.
+    pub(super) fn view(&self) -> Triangles<'_> {
+        Triangles {
+            corners: &self.corners,
+            centroids: &self.centroids,
+            area_normals: &self.area_normals,
+        }
+    }
+}
+
 /// Buffers [`Triangles::split`] reuses from node to node.
 #[derive(Debug, Default)]
 pub(super) struct SplitScratch {
@@ -183,42 +223,9 @@ mod tests {
     use super::*;
     use crate::lod::testmesh;
 
-    /// What the split reads of a mesh's triangles, owned for a test.
-    struct Owned {
-        corners: Vec<[Vec3; 3]>,
-        centroids: Vec<Vec3>,
-        area_normals: Vec<Vec3>,
-    }
-
-    impl Owned {
-        fn of(mesh: &crate::mesh::TriMesh) -> Self {
-            let corners: Vec<[Vec3; 3]> = (0..mesh.triangles().len())
-                .map(|t| mesh.triangle(t))
-                .collect();
-            let centroids = corners.iter().map(|t| (t[0] + t[1] + t[2]) / 3.0).collect();
-            let area_normals = corners
-                .iter()
-                .map(|t| (t[1] - t[0]).cross(&(t[2] - t[0])))
-                .collect();
-            Self {
-                corners,
-                centroids,
-                area_normals,
-            }
-        }
-
-        fn view(&self) -> Triangles<'_> {
-            Triangles {
-                corners: &self.corners,
-                centroids: &self.centroids,
-                area_normals: &self.area_normals,
-            }
-        }
-
-        /// Every triangle's index, in order.
-        fn all(&self) -> Vec<u32> {
-            (0..self.corners.len() as u32).collect()
-        }
+    /// Every triangle's index, in order.
+    fn all(t: &TriangleData) -> Vec<u32> {
+        (0..t.corners.len() as u32).collect()
     }
 
     /// A box is cut along its creases: the first cut leaves both children thinner than the
@@ -226,9 +233,9 @@ mod tests {
     #[test]
     fn a_box_is_cut_along_its_creases() {
         let mesh = testmesh::cuboid(Vec3::new(0.03, 0.02, 0.01));
-        let owned = Owned::of(&mesh);
+        let owned = TriangleData::of(&mesh);
         let tris = owned.view();
-        let mut all = owned.all();
+        let mut all = all(&owned);
         let mut scratch = SplitScratch::default();
         let cut = tris.split(&mut all, &mut scratch);
         assert!(0 < cut && cut < all.len());
@@ -267,9 +274,9 @@ mod tests {
         });
         let floor = (2 * k * k * 2) as usize;
         let mesh = testmesh::mesh(vertices, faces);
-        let owned = Owned::of(&mesh);
+        let owned = TriangleData::of(&mesh);
         let tris = owned.view();
-        let mut all = owned.all();
+        let mut all = all(&owned);
         let cut = tris.split(&mut all, &mut SplitScratch::default());
         assert_eq!(tris.score(&all, cut), 0.0, "both children flat");
         let one_face = |part: &[u32]| {
@@ -300,9 +307,9 @@ mod tests {
             }
         }
         let mesh = testmesh::mesh(vertices, faces);
-        let owned = Owned::of(&mesh);
+        let owned = TriangleData::of(&mesh);
         let tris = owned.view();
-        let mut all = owned.all();
+        let mut all = all(&owned);
         assert_eq!(tris.split(&mut all, &mut SplitScratch::default()), 16);
     }
 }

@@ -7,7 +7,7 @@ use super::build::{LEAF, Node};
 use super::split::{SplitScratch, Triangles};
 
 /// A node of `triangles` triangles whose first one is `triangle`, with no geometry yet.
-pub(super) fn blank_node(triangle: u32, triangles: u32) -> Node {
+fn blank_node(triangle: u32, triangles: u32) -> Node {
     Node {
         center: Vec3::zeros(),
         radius: 0.0,
@@ -26,15 +26,55 @@ pub(super) fn blank_node(triangle: u32, triangles: u32) -> Node {
 /// Subtrees with at least this many triangles split their two children's topologies in parallel.
 pub(super) const PARALLEL_TOPOLOGY_MIN: usize = 4096;
 
+/// A hierarchy's topology: its nodes (no geometry yet) in depth-first pre-order, each node's
+/// range in `perm`, the triangles' order, and the height.
+#[derive(Debug, Clone, PartialEq)]
+pub(super) struct Tree {
+    pub nodes: Vec<Node>,
+    pub ranges: Vec<(u32, u32)>,
+    pub perm: Vec<u32>,
+    pub height: usize,
+}
+
+impl Tree {
+    /// The topology of `triangles` (at least one), subtrees of at least `parallel_min`
+    /// triangles building their two children in parallel ([`PARALLEL_TOPOLOGY_MIN`] in a build).
+    pub(super) fn build(triangles: &Triangles<'_>, parallel_min: usize) -> Self {
+        let n = triangles.corners.len();
+        let mut perm: Vec<u32> = (0..n as u32).collect();
+        let mut nodes = vec![blank_node(0, 0); 2 * n - 1];
+        let mut ranges = vec![(0, 0); 2 * n - 1];
+        let at = Place {
+            lo: 0,
+            base: 0,
+            level: 1,
+        };
+        let height = topology(
+            triangles,
+            &mut perm,
+            &mut nodes,
+            &mut ranges,
+            at,
+            parallel_min,
+        );
+        Self {
+            nodes,
+            ranges,
+            perm,
+            height,
+        }
+    }
+}
+
 /// Where a subtree sits in the hierarchy being built.
 #[derive(Debug, Clone, Copy)]
-pub(super) struct Place {
+struct Place {
     /// Its first triangle's position in the whole permutation.
-    pub lo: u32,
+    lo: u32,
     /// Its root's node index.
-    pub base: u32,
+    base: u32,
     /// Its root's depth (the hierarchy's root is at 1).
-    pub level: usize,
+    level: usize,
 }
 
 /// Builds the topology of the subtree at `at` over `perm` (its triangles, reordered in place)
@@ -42,7 +82,7 @@ pub(super) struct Place {
 /// its height (deepest level). A node's index follows from its place (the left child of `i` is
 /// `i + 1`, the right one `i + 2 · left triangles`), so subtrees of at least `parallel_min`
 /// triangles build their two children at once, with the same result.
-pub(super) fn topology(
+fn topology(
     triangles: &Triangles<'_>,
     perm: &mut [u32],
     nodes: &mut [Node],
@@ -98,59 +138,26 @@ pub(super) fn topology(
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::lod::split::TriangleData;
     use crate::lod::testmesh;
-
-    /// Nodes, ranges, permutation and height of a topology.
-    type Built = (Vec<Node>, Vec<(u32, u32)>, Vec<u32>, usize);
-
-    /// The topology of `mesh` built with subtrees of at least `parallel_min` triangles split in
-    /// parallel: its nodes, ranges, permutation and height.
-    fn built(mesh: &crate::mesh::TriMesh, parallel_min: usize) -> Built {
-        let n = mesh.triangles().len();
-        let corners: Vec<[Vec3; 3]> = (0..n).map(|t| mesh.triangle(t)).collect();
-        let centroids: Vec<Vec3> = corners.iter().map(|t| (t[0] + t[1] + t[2]) / 3.0).collect();
-        let area_normals: Vec<Vec3> = corners
-            .iter()
-            .map(|t| (t[1] - t[0]).cross(&(t[2] - t[0])))
-            .collect();
-        let triangles = Triangles {
-            corners: &corners,
-            centroids: &centroids,
-            area_normals: &area_normals,
-        };
-        let mut perm: Vec<u32> = (0..n as u32).collect();
-        let mut nodes = vec![blank_node(0, 0); 2 * n - 1];
-        let mut ranges = vec![(0, 0); 2 * n - 1];
-        let at = Place {
-            lo: 0,
-            base: 0,
-            level: 1,
-        };
-        let height = topology(
-            &triangles,
-            &mut perm,
-            &mut nodes,
-            &mut ranges,
-            at,
-            parallel_min,
-        );
-        (nodes, ranges, perm, height)
-    }
 
     #[test]
     fn parallel_and_serial_topologies_are_the_same_tree() {
         let mesh = testmesh::bumpy_sphere(4, 1.0, 0.1, 7);
-        let serial = built(&mesh, usize::MAX);
+        let data = TriangleData::of(&mesh);
+        let serial = Tree::build(&data.view(), usize::MAX);
         for parallel_min in [2, 3, 64, 1000] {
-            assert_eq!(
-                built(&mesh, parallel_min),
-                serial,
-                "parallel_min {parallel_min}"
-            );
+            let parallel = Tree::build(&data.view(), parallel_min);
+            assert_eq!(parallel, serial, "parallel_min {parallel_min}");
         }
         // A well-formed pre-order tree: children after their parent, ranges split at the left
         // child's end, every triangle in one leaf.
-        let (nodes, ranges, perm, height) = serial;
+        let Tree {
+            nodes,
+            ranges,
+            perm,
+            height,
+        } = serial;
         let mut leaves = vec![0; perm.len()];
         for (i, node) in nodes.iter().enumerate() {
             let (lo, hi) = ranges[i];
