@@ -30,9 +30,14 @@ pub(super) const PARALLEL_TOPOLOGY_MIN: usize = 4096;
 /// range in `perm`, the triangles' order, and the height.
 #[derive(Debug, Clone, PartialEq)]
 pub(super) struct Tree {
+    /// The nodes, `2 n − 1` for `n` triangles: counts, children and leaf triangles set, the
+    /// geometry not yet.
     pub nodes: Vec<Node>,
+    /// By node: its triangles' range `[lo, hi)` in `perm`.
     pub ranges: Vec<(u32, u32)>,
+    /// The triangles' source indices, in the order the nodes' ranges read them.
     pub perm: Vec<u32>,
+    /// Depth of the deepest leaf (the root at 1).
     pub height: usize,
 }
 
