@@ -276,12 +276,12 @@ fn piece_to_surface(
     }
     // Candidates with a usable projected piece, best first (closest to this plane).
     let mut usable: Vec<(Real, usize, Poly2<MAX_PIECE_VERTICES>)> = Vec::with_capacity(cands.len());
-    for (k, &m) in cands.iter().enumerate().take(MAX_CANDIDATES) {
-        let nm = &nodes[m];
-        let (verts, len) = &pieces[m];
-        if !nm.deviation.is_finite() || *len < 3 {
+    for (k, frame) in frames.iter().enumerate() {
+        // A candidate without a piece bounds through its sphere only (`term`).
+        if frame.len < 3 {
             continue;
         }
+        let (verts, len) = &pieces[cands[k]];
         let mut p = Poly2::<MAX_PIECE_VERTICES>::default();
         let mut off: Real = 0.0;
         for v in &verts[..*len] {
@@ -295,7 +295,7 @@ fn piece_to_surface(
         if area < 0.0 {
             p.reverse();
         }
-        usable.push((off + nm.deviation, k, p));
+        usable.push((off + frame.deviation, k, p));
     }
     usable.sort_by(|a, b| a.0.total_cmp(&b.0));
     // min over candidates of (max over the region's vertices of the candidate's term), below
