@@ -118,7 +118,7 @@ pub trait ContactModel {
         }
         let reach_m = self.extrapolation_reach_m().max(0.0);
         let kin = Kinematics::new(body, &y);
-        *out = LinearizedContact::none();
+        out.clear();
         out.y0 = y;
         for (index, c) in contacts.iter().enumerate() {
             let mut jacobian = WrenchJacobian::zeros();
@@ -383,7 +383,14 @@ impl ContactTangent {
 /// One bounded [`ContactTangent`] per contact (cluster representative): the haptic thread sums
 /// them in constant time, whatever the number of triangles or raw contacts. A plain `Copy` value
 /// of fixed size, so it can be exchanged through a lock-free single-slot buffer.
-#[derive(Debug, Clone, Copy, PartialEq)]
+///
+/// The value is large (about 15 kB, [`MAX_REPRESENTATIVES`] tangents of a 6×13 Jacobian each),
+/// and only the first [`LinearizedContact::contact_count`] tangents mean anything: the rest is
+/// storage, left as it was by [`LinearizedContact::clear`] and not copied by
+/// [`LinearizedContact::copy_from`], and equality and `Debug` look at the tangents in use only.
+/// Where a model is handed on often (every contact update, the haptic thread's receipt of one),
+/// `clear` and `copy_from` cost what the contacts in use cost, not the whole capacity.
+#[derive(Clone, Copy)]
 pub struct LinearizedContact {
     /// The tool state the contacts were computed at.
     pub y0: StateVector,
@@ -405,7 +412,57 @@ impl Default for LinearizedContact {
     }
 }
 
+impl PartialEq for LinearizedContact {
+    /// Equal models: the same `y₀`, wrench, count, depth and scale, and the same tangents in
+    /// use (the unused storage is not compared).
+    fn eq(&self, other: &Self) -> bool {
+        self.y0 == other.y0
+            && self.wrench0 == other.wrench0
+            && self.contact_count == other.contact_count
+            && self.max_depth_m == other.max_depth_m
+            && self.scale == other.scale
+            && self.tangents() == other.tangents()
+    }
+}
+
+impl std::fmt::Debug for LinearizedContact {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("LinearizedContact")
+            .field("y0", &self.y0)
+            .field("wrench0", &self.wrench0)
+            .field("tangents", &self.tangents())
+            .field("contact_count", &self.contact_count)
+            .field("max_depth_m", &self.max_depth_m)
+            .field("scale", &self.scale)
+            .finish()
+    }
+}
+
 impl LinearizedContact {
+    /// Makes this model [`LinearizedContact::none`] without writing its tangents' storage
+    /// (which is unused once the count is 0): a few dozen bytes written instead of 15 kB.
+    #[inline]
+    pub fn clear(&mut self) {
+        self.y0 = StateVector::zeros();
+        self.wrench0 = Wrench::zero();
+        self.contact_count = 0;
+        self.max_depth_m = Real::NEG_INFINITY;
+        self.scale = 1.0;
+    }
+
+    /// Makes this model equal to `other`, copying only the tangents `other` has in use (a
+    /// model with five contacts copies five tangents, not [`MAX_REPRESENTATIVES`]).
+    #[inline]
+    pub fn copy_from(&mut self, other: &Self) {
+        let count = other.contact_count.min(MAX_REPRESENTATIVES);
+        self.y0 = other.y0;
+        self.wrench0 = other.wrench0;
+        self.tangents[..count].copy_from_slice(&other.tangents[..count]);
+        self.contact_count = other.contact_count;
+        self.max_depth_m = other.max_depth_m;
+        self.scale = other.scale;
+    }
+
     /// No contact: zero wrench and zero Jacobian.
     pub fn none() -> Self {
         Self {
@@ -673,5 +730,51 @@ mod tests {
         assert!((j[(2, 2)] + 500.0 * MAX_REPRESENTATIVES as Real).abs() < 1e-9);
         let c = half.wrench_at(&y, &kin, LinearizationMode::Constant);
         assert!((c.force.z - full.force.z / 2.0).abs() < 1e-12);
+    }
+
+    #[test]
+    fn clear_and_copy_from_give_the_same_model_as_whole_copies() {
+        let y = StateVector::from_fn(|k, _| 0.01 * k as Real);
+        let kin = Kinematics::new(&RigidBody::sphere(0.1, 0.01).unwrap(), &y);
+        let model = |count: usize, reach_m: Real| {
+            let mut lin = LinearizedContact::none();
+            lin.y0 = y;
+            lin.max_depth_m = 1e-4 * count as Real;
+            for _ in 0..count {
+                lin.push(floor(reach_m)).unwrap();
+            }
+            lin
+        };
+        let (five, two) = (model(5, 1e-3), model(2, 2e-3));
+        // A model with stale tangents beyond its count, made equal to a smaller one.
+        let mut target = five;
+        target.copy_from(&two);
+        assert_eq!(target, two);
+        assert_eq!(target.tangents().len(), 2);
+        assert_ne!(
+            target.tangents, two.tangents,
+            "the storage beyond the count is stale"
+        );
+        for mode in [
+            LinearizationMode::Linearized,
+            LinearizationMode::FixedFrames,
+        ] {
+            assert_eq!(
+                target.wrench_at(&y, &kin, mode),
+                two.wrench_at(&y, &kin, mode)
+            );
+        }
+        assert_eq!(format!("{target:?}"), format!("{two:?}"));
+        // Cleared: no contact, equal to a fresh one, and a push starts from the first tangent.
+        target.clear();
+        assert_eq!(target, LinearizedContact::none());
+        assert!(target.is_empty());
+        assert_eq!(
+            target.wrench_at(&y, &kin, LinearizationMode::Linearized),
+            Wrench::zero()
+        );
+        target.push(floor(1e-3)).unwrap();
+        assert_eq!(target.tangents(), &five.tangents()[..1]);
+        assert_ne!(target, two);
     }
 }

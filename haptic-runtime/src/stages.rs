@@ -59,6 +59,21 @@ impl ContactUpdate {
             error_threshold: 0.0,
         }
     }
+
+    /// Makes this update equal to `other`, copying only the contact tangents in use (see
+    /// [`LinearizedContact::copy_from`]): a few kB for a handful of contacts, instead of the
+    /// model's whole 15 kB.
+    #[inline]
+    pub fn copy_from(&mut self, other: &Self) {
+        self.seq = other.seq;
+        self.query_time_s = other.query_time_s;
+        self.model.copy_from(&other.model);
+        self.raw_contact_count = other.raw_contact_count;
+        self.cluster_count = other.cluster_count;
+        self.max_penetration_m = other.max_penetration_m;
+        self.broad_phase_only = other.broad_phase_only;
+        self.error_threshold = other.error_threshold;
+    }
 }
 
 /// Why a contact update failed (the update is dropped and counted).
@@ -152,6 +167,9 @@ impl<B: CollisionBackend, C: ContactModel> ContactStage<B, C> {
 
     /// One contact update at the tool state `tool`, computed at haptic time `time_s`.
     ///
+    /// A convenience over [`ContactStage::update_into`], which writes the update where it is
+    /// published instead of returning a 15 kB value.
+    ///
     /// # Errors
     /// [`ContactStageError`] when the back-end, the clustering or the model fails.
     pub fn update(
@@ -159,62 +177,82 @@ impl<B: CollisionBackend, C: ContactModel> ContactStage<B, C> {
         tool: &ToolState,
         time_s: Real,
     ) -> Result<ContactUpdate, ContactStageError> {
+        let mut update = ContactUpdate::none();
+        self.update_into(tool, time_s, &mut update)?;
+        Ok(update)
+    }
+
+    /// One contact update at the tool state `tool`, computed at haptic time `time_s`, written
+    /// over `out` (whatever it held): every field is set, and of the model's tangents only the
+    /// ones in use, so that free space costs the query and a few dozen bytes.
+    ///
+    /// # Errors
+    /// [`ContactStageError`] when the back-end, the clustering or the model fails; `out` is then
+    /// partly written and should not be published.
+    pub fn update_into(
+        &mut self,
+        tool: &ToolState,
+        time_s: Real,
+        out: &mut ContactUpdate,
+    ) -> Result<(), ContactStageError> {
         let Some(b) = &self.budget else {
-            return self.update_at_threshold(tool, time_s);
+            return self.update_at_threshold(tool, time_s, out);
         };
         self.params.error_threshold = b.threshold();
         let started = std::time::Instant::now();
-        let result = self.update_at_threshold(tool, time_s);
+        let result = self.update_at_threshold(tool, time_s, out);
         // Only updates that found contacts say what a threshold costs: free space (the broad
         // phase alone) and failures take nanoseconds and would pull the threshold to the
         // finest just before the next contact.
-        if let (Ok(u), Some(b)) = (&result, &mut self.budget) {
-            if u.raw_contact_count > 0 {
+        if let (Ok(()), Some(b)) = (&result, &mut self.budget) {
+            if out.raw_contact_count > 0 {
                 b.observe(started.elapsed().as_secs_f64());
             }
         }
         result
     }
 
-    /// One update at the current query parameters.
+    /// One update at the current query parameters, into `out`.
     fn update_at_threshold(
         &mut self,
         tool: &ToolState,
         time_s: Real,
-    ) -> Result<ContactUpdate, ContactStageError> {
+        out: &mut ContactUpdate,
+    ) -> Result<(), ContactStageError> {
         let stats = self
             .backend
             .query(&tool.pose(), &self.params, &mut self.raw)
             .map_err(|e| ContactStageError::Collision(Box::new(e)))?;
         self.seq += 1;
-        let mut update = ContactUpdate {
-            seq: self.seq,
-            query_time_s: time_s,
-            error_threshold: self.params.error_threshold,
-            ..ContactUpdate::none()
-        };
+        out.seq = self.seq;
+        out.query_time_s = time_s;
+        out.error_threshold = self.params.error_threshold;
         if self.raw.is_empty() {
             // Free space: no clustering, no penalty, no Jacobian.
             self.representatives.clear();
-            update.broad_phase_only = !stats.broad_phase_hit;
-            return Ok(update);
+            out.model.clear();
+            out.raw_contact_count = 0;
+            out.cluster_count = 0;
+            out.max_penetration_m = 0.0;
+            out.broad_phase_only = !stats.broad_phase_hit;
+            return Ok(());
         }
-        update.broad_phase_only = false;
-        update.raw_contact_count = self.raw.len();
-        update.max_penetration_m = self.raw.max_depth_m().unwrap_or(0.0).max(0.0);
+        out.broad_phase_only = false;
+        out.raw_contact_count = self.raw.len();
+        out.max_penetration_m = self.raw.max_depth_m().unwrap_or(0.0).max(0.0);
         let clustered = self.clusterer.cluster(
             self.raw.as_slice(),
             self.params.delta_m,
             &mut self.representatives,
         )?;
-        update.cluster_count = clustered.clusters;
+        out.cluster_count = clustered.clusters;
         self.model.linearize(
             &self.body,
             tool,
             self.representatives.as_slice(),
-            &mut update.model,
+            &mut out.model,
         )?;
-        Ok(update)
+        Ok(())
     }
 }
 
@@ -420,17 +458,19 @@ impl<I: Integrator, D: Device> HapticStage<I, D> {
             // `SafetyConfig::contact_blend`).
             self.contact_blend_s =
                 (now_s - self.contact_received_s).clamp(0.0, self.safety.contact_timeout_s);
-            self.contact = *update;
+            // Copies of the tangents in use only: the models are 15 kB each, and this runs on
+            // the haptic thread at every update.
+            self.contact.copy_from(update);
             self.contact_received_s = now_s;
             let late = update.model.beyond_reach(&self.tool.to_vector());
             self.stats.late_contact_updates += u64::from(late);
             if self.safety.contact_blend && late && self.contact_blend_s > 0.0 {
-                self.forces.previous_contact = self.forces.contact;
+                self.forces.previous_contact.copy_from(&self.forces.contact);
                 self.forces.blend = 0.0;
             } else {
                 self.forces.blend = 1.0;
             }
-            self.forces.contact = update.model;
+            self.forces.contact.copy_from(&update.model);
         }
     }
 

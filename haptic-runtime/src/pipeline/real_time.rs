@@ -193,8 +193,10 @@ fn realtime_haptic_loop<I: Integrator, D: Device>(
         let deadline = t0 + Duration::from_secs_f64((k + 1) as Real * dt);
         let now_s = t0.elapsed().as_secs_f64();
         if links.contact_out.update() {
-            let (update, _) = *links.contact_out.output_buffer();
-            haptic.receive_contact(&update, now_s);
+            // Read in place: the update is 15 kB, and `receive_contact` copies only the
+            // contacts in use.
+            let (update, _) = links.contact_out.output_buffer();
+            haptic.receive_contact(update, now_s);
         }
         let started = Instant::now();
         let outcome = haptic.step(now_s, dt);
@@ -258,6 +260,8 @@ fn contact_thread_loop<B: CollisionBackend, C: ContactModel>(
 ) -> ContactStats {
     let mut stats = ContactStats::default();
     let mut last_seq = 0;
+    // The published update is no longer readable from this side: a copy for the recording.
+    let mut recorded = ContactUpdate::none();
     while !stop.load(Ordering::Acquire) {
         tool_out.update();
         let msg = *tool_out.output_buffer();
@@ -267,20 +271,31 @@ fn contact_thread_loop<B: CollisionBackend, C: ContactModel>(
         }
         last_seq = msg.seq;
         let started = Instant::now();
-        match catch_unwind(AssertUnwindSafe(|| contact.update(&msg.state, msg.time_s))) {
-            Ok(Ok(update)) => {
+        // Written in place into the buffer's back slot, published only when whole: a failed
+        // or panicking update leaves the haptic thread's model as it was.
+        let slot = contact_in.input_buffer_mut();
+        match catch_unwind(AssertUnwindSafe(|| {
+            contact.update_into(&msg.state, msg.time_s, &mut slot.0)
+        })) {
+            Ok(Ok(())) => {
                 let latency = started.elapsed().as_secs_f64();
                 // On the haptic clock (its origin is set before its first message), so that
                 // an update's time and the query's time compare.
                 let now = start.elapsed().as_secs_f64()
                     - haptic_origin_ns.load(Ordering::Acquire) as Real * 1e-9;
-                contact_in.write((update, latency));
-                stats.record(&update, latency, now);
+                slot.1 = latency;
+                let update = &slot.0;
+                stats.record(update, latency, now);
+                let (raw_count, cluster_count) = (update.raw_contact_count, update.cluster_count);
+                if record.is_some() {
+                    recorded.copy_from(update);
+                }
+                contact_in.publish();
                 if let Some(r) = &mut record {
                     r.updates.push(UpdateRecord::of(
                         msg.time_s,
                         now,
-                        &update,
+                        &recorded,
                         contact.raw_contacts(),
                         contact.representatives(),
                         contact.representative_weights(),
@@ -291,9 +306,9 @@ fn contact_thread_loop<B: CollisionBackend, C: ContactModel>(
                 }
                 live.contact_updates.fetch_add(1, Ordering::Relaxed);
                 live.raw_contact_count
-                    .store(update.raw_contact_count as u64, Ordering::Relaxed);
+                    .store(raw_count as u64, Ordering::Relaxed);
                 live.cluster_count
-                    .store(update.cluster_count as u64, Ordering::Relaxed);
+                    .store(cluster_count as u64, Ordering::Relaxed);
                 live.max_penetration_m.store(stats.max_penetration_m);
             }
             Ok(Err(e)) => {

@@ -88,11 +88,14 @@ where
     C: ContactModel,
     D: Device,
 {
-    let mut pending: Option<(Real, Real, ContactUpdate)> = None; // (start, ready, update)
+    // The update in flight, written in place (it is 15 kB): `pending` holds when it started
+    // and when it takes effect.
+    let mut update = ContactUpdate::none();
+    let mut pending: Option<(Real, Real)> = None; // (start, ready)
     let mut next_start_s = 0.0;
     for k in 0..steps {
         let t = k as Real * dt;
-        if let Some((start, ready, update)) = pending {
+        if let Some((start, ready)) = pending {
             if ready <= t + 1e-12 {
                 haptic.receive_contact(&update, t);
                 stats.record(&update, ready - start, t);
@@ -103,14 +106,16 @@ where
         if pending.is_none() && stats.panicked.is_none() && t + 1e-12 >= next_start_s {
             let tool = *haptic.tool();
             let started = Instant::now();
-            let result = catch_unwind(AssertUnwindSafe(|| contact.update(&tool, t)));
+            let result = catch_unwind(AssertUnwindSafe(|| {
+                contact.update_into(&tool, t, &mut update)
+            }));
             let cost_s = started.elapsed().as_secs_f64();
             let delay = match latency {
                 ContactLatency::FixedRate { rate_hz } => 1.0 / rate_hz,
                 ContactLatency::Measured { scale, min_s } => (cost_s * scale).max(min_s),
             };
             match result {
-                Ok(Ok(update)) => {
+                Ok(Ok(())) => {
                     observe.contact_update(
                         t,
                         t + delay,
@@ -120,7 +125,7 @@ where
                         contact.representative_weights(),
                         cost_s,
                     );
-                    pending = Some((t, t + delay, update));
+                    pending = Some((t, t + delay));
                 }
                 Ok(Err(e)) => {
                     stats.errors += 1;

@@ -25,9 +25,14 @@
 //!   beside parry's query of the same run (`parry_median_s` and the ratios).
 //! - `build_jaws_s`, `build_jaws_bytes`: `LodBackend::new` on the jaws, and its heap memory;
 //!   `load_jaws_s`: the same hierarchies read back from their saved files.
-//! - `free_space_contact_step_median_s`: the contact stage in free space: `LodBackend::query`
-//!   with the upper jaw 1 m above the lower one (the broad phase rejects it), then the empty-set
-//!   handling of `haptic_runtime`'s contact stage (clear the representatives, no model).
+//! - `free_space_contact_step_median_s`: the contact stage in free space: the runtime's
+//!   `ContactStage::update_into` (as the real-time contact thread calls it, writing into the
+//!   buffer it publishes) with the upper jaw 1 m above the lower one: the LOD query, whose broad
+//!   phase rejects the pair, and the stage's free-space handling (the representatives and the
+//!   model cleared in place).
+//! - `receive_contact_update_median_s`: `HapticStage::receive_contact` of a new update with the
+//!   five table contacts of `contacts5`: what the haptic thread does on top of its step when
+//!   an update arrives (the copy of the contacts in use into the stage).
 //! - `suite_worst`: the worst figure over the generalization suite's scenes for each of issue
 //!   15's goals (`cargo xtask bench collision --suite`, run last, `--quick` with this report;
 //!   its `suite.json` lands beside `perf.json` with `--out`).
@@ -39,10 +44,12 @@ use std::time::Instant;
 use haptic_cluster::{ClusterParams, Clusterer};
 use haptic_collision::{LoadOptions, LodBackend, ParryBackend, TriMesh};
 use haptic_core::{
-    CollisionBackend, Contact, ContactSet, DeviceState, Integrator, Kinematics, LinearizationMode,
-    LinearizedContact, Pose, QueryParams, Real, ToolState, Vec3,
+    CollisionBackend, Contact, ContactSet, DeviceLimits, DeviceState, Integrator, Kinematics,
+    LinearizationMode, Pose, QueryParams, Real, ToolState, Vec3,
 };
-use haptic_dynamics::{HapticForces, IntegratorKind};
+use haptic_device::ScriptedDevice;
+use haptic_dynamics::{HapticForces, IntegratorKind, LinearizedBackwardEuler};
+use haptic_runtime::{ContactUpdate, HapticStage, SafetyConfig};
 use nalgebra::UnitQuaternion;
 use serde::Serialize;
 
@@ -153,6 +160,44 @@ fn time_haptic_step(
     Ok(quantiles(&mut times))
 }
 
+/// Times `HapticStage::receive_contact` of `samples` new updates holding the five table contacts
+/// (each with a new sequence number, so that each is taken), on a stage at the start state.
+fn time_receive_contact(s: &Setup, samples: usize) -> anyhow::Result<Real> {
+    let integ = LinearizedBackwardEuler;
+    let forces = haptic_forces(s, false, &integ);
+    let limits = DeviceLimits::new(10.0, 1.0, Vec3::repeat(-10.0), Vec3::repeat(10.0), RATE_HZ)?;
+    let device = ScriptedDevice::stationary(hand_device(0.0).pose, limits)?;
+    let mut stage = HapticStage::new(
+        integ,
+        device,
+        s.body,
+        forces,
+        s.start,
+        SafetyConfig::default(),
+    );
+    let mut update = ContactUpdate::none();
+    update.model = s.table;
+    update.raw_contact_count = s.table.contact_count;
+    update.cluster_count = s.table.contact_count;
+    update.broad_phase_only = false;
+    let mut times = Vec::with_capacity(samples);
+    for k in 0..samples + 1000 {
+        update.seq = k as u64 + 1;
+        let clock = Instant::now();
+        stage.receive_contact(black_box(&update), k as Real * 1e-3);
+        let dt = clock.elapsed().as_secs_f64();
+        black_box(stage.forces());
+        if k >= 1000 {
+            times.push(dt);
+        }
+    }
+    anyhow::ensure!(
+        stage.forces().contact.contact_count == s.table.contact_count,
+        "the haptic stage did not take the update"
+    );
+    Ok(median(&mut times))
+}
+
 /// Times one query.
 fn time_query<B: CollisionBackend>(
     backend: &mut B,
@@ -223,6 +268,12 @@ pub fn run(out: &crate::OutArgs) -> anyhow::Result<()> {
         }
         haptic.insert(kind.name(), entry);
     }
+
+    let receive_med = time_receive_contact(&s, free_samples)?;
+    println!(
+        "haptic stage receiving a 5-contact update: median {:.1} ns",
+        receive_med * 1e9
+    );
 
     // Clustering 50 → 5, warm.
     let frames: Vec<Vec<Contact>> = (0..64)
@@ -323,9 +374,9 @@ pub fn run(out: &crate::OutArgs) -> anyhow::Result<()> {
     // hierarchies read back from the files saved above.
     let mass = tool.mass_properties(1.0)?;
     let body = tool.mass_properties(0.1 / mass.volume_m3)?.rigid_body()?;
-    let stage_times = |threshold: Real| -> anyhow::Result<Vec<Real>> {
+    let contact_stage = |threshold: Real| -> anyhow::Result<_> {
         let (backend, _) = LodBackend::with_cache(&tool, &obstacles, &cache)?;
-        let mut stage = haptic_runtime::ContactStage::new(
+        Ok(haptic_runtime::ContactStage::new(
             backend,
             haptic_dynamics::PenaltyModel::new(haptic_dynamics::PenaltyParams::new(
                 5000.0, 2.0, DELTA_M,
@@ -333,7 +384,10 @@ pub fn run(out: &crate::OutArgs) -> anyhow::Result<()> {
             Clusterer::new(ClusterParams::default())?,
             body,
             QueryParams::new(DELTA_M, threshold)?,
-        );
+        ))
+    };
+    let stage_times = |threshold: Real| -> anyhow::Result<Vec<Real>> {
+        let mut stage = contact_stage(threshold)?;
         // One pass untimed: the stage's buffers grow to their size on the first updates.
         for (k, pose) in poses.iter().enumerate() {
             black_box(stage.update(&ToolState::at_rest(pose), k as Real * 1e-3)?);
@@ -359,29 +413,29 @@ pub fn run(out: &crate::OutArgs) -> anyhow::Result<()> {
         parry_med / stage04_med
     );
 
-    // Free-space contact step: broad-phase rejection and the empty-set handling.
-    let far = Pose {
+    // Free-space contact step: the runtime's contact stage with the tool 1 m away (the broad
+    // phase rejects it), written in place as the real-time contact thread writes it.
+    let far = ToolState::at_rest(&Pose {
         position: com + Vec3::new(0.0, 0.0, 1.0),
         orientation: UnitQuaternion::identity(),
-    };
-    let mut representatives = ContactSet::with_capacity(8);
-    let mut model = LinearizedContact::none();
+    });
+    let mut stage = contact_stage(0.025)?;
+    let mut update = ContactUpdate::none();
     let mut free_times = Vec::with_capacity(free_samples);
     for k in 0..free_samples + 1000 {
         let clock = Instant::now();
-        lod.query(black_box(&far), &exact, &mut out)?;
-        if out.is_empty() {
-            representatives.clear();
-            model = LinearizedContact::none();
-        }
+        stage.update_into(black_box(&far), k as Real * 1e-3, &mut update)?;
         let dt = clock.elapsed().as_secs_f64();
+        black_box(&update);
         if k >= 1000 {
             free_times.push(dt);
         }
     }
-    black_box((&representatives, &model));
-    if !out.is_empty() {
-        anyhow::bail!("the tool 1 m away still has {} contacts", out.len());
+    if !update.broad_phase_only {
+        anyhow::bail!(
+            "the tool 1 m away still has {} contacts",
+            update.raw_contact_count
+        );
     }
     let free_med = median(&mut free_times);
     println!("free-space contact step: median {:.1} ns", free_med * 1e9);
@@ -426,6 +480,7 @@ pub fn run(out: &crate::OutArgs) -> anyhow::Result<()> {
         build_jaws_bytes: build_bytes,
         build_jaws_parry_s: parry_build_s,
         free_space_contact_step_median_s: free_med,
+        receive_contact_update_median_s: receive_med,
         suite_worst,
         setup: PerfSetup {
             cpu: cpu_model(),
@@ -514,6 +569,9 @@ struct PerfReport {
     build_jaws_bytes: usize,
     build_jaws_parry_s: Real,
     free_space_contact_step_median_s: Real,
+    /// `HapticStage::receive_contact` of a new update with five contacts: what a haptic step
+    /// costs on top of the step itself when an update has arrived (s).
+    receive_contact_update_median_s: Real,
     /// The worst figure over the scenes of `cargo xtask bench collision --suite` (run as part of
     /// this report, `--quick` with it; its `suite.json` is written beside, or to
     /// `target/xtask/collision` without `--out`).
