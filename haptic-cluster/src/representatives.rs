@@ -47,9 +47,8 @@ struct Sums {
     d: Real,
     area_m2: Real,
     deepest: usize,
-    /// Torque pairs only, about the local origin `o` (the cluster's final centroid from Lloyd's
-    /// iterations): `Σ (p_i − o) × u_i` and `Σ w_i (p_i − o)(p_i − o)ᵀ` (xx, yy, zz, xy, xz,
-    /// yz).
+    /// Torque pairs only, about the cluster's centroid `c = Σ w_i p_i / W`: the couple
+    /// `Σ (p_i − c) × u_i` and `Σ w_i (p_i − c)(p_i − c)ᵀ` (xx, yy, zz, xy, xz, yz).
     moment: Vec3,
     second: [Real; 6],
 }
@@ -268,10 +267,15 @@ impl Clusterer {
                 }
             }
             if pairs {
-                // Apart from the sums above, so that each loop's sums stay in registers.
+                // Apart from the sums above, so that each loop's sums stay in registers; about
+                // the centroid itself, as the springs' body-frame offsets are below. Sums about
+                // another point moved to the centroid (`Σ w o oᵀ / W − s sᵀ`) cancel where the
+                // contacts' spread is small beside that point's distance, and the rounding left
+                // over would place a pair where the contacts have no spread.
+                let centroid = acc.p_a * acc.w.recip();
                 for &i in members {
                     let (c, w) = (&contacts[i as usize], self.weights[i as usize]);
-                    let off = c.p_a - origin;
+                    let off = c.p_a - centroid;
                     let push = w * weight(c.depth_m, delta_m) * c.stiffness_share;
                     acc.moment += off.cross(&c.n) * push;
                     let wo = off * w;
@@ -293,17 +297,19 @@ impl Clusterer {
             let r_a = acc.r_a * inv_w;
             let d = (acc.d * inv_w).max(-delta_m);
             self.previous.push((p_a, d));
-            let pair = if pairs {
-                // The sums about the local origin, moved to the centroid.
-                let shift = p_a - origin;
-                let couple = acc.moment - shift.cross(&acc.penalty);
+            // A spread within the rounding of the contacts' positions is no spread: contacts at
+            // one point differ from their weighted mean by an ulp or so, which a pair would
+            // read as a direction.
+            let rounding_m = 16.0 * Real::EPSILON * p_a.norm();
+            let spread_m2 = (acc.second[0] + acc.second[1] + acc.second[2]) * inv_w;
+            let pair = if pairs && spread_m2 > rounding_m * rounding_m {
                 let q = acc.second.map(|x| x * inv_w);
                 let cov = Mat3::new(
                     q[0], q[3], q[4], //
                     q[3], q[1], q[5], //
                     q[4], q[5], q[2],
-                ) - shift * shift.transpose();
-                torque_pair(&acc.penalty, &couple, &cov, acc.unsigned).map(|pair| {
+                );
+                torque_pair(&acc.penalty, &acc.moment, &cov, acc.unsigned).map(|pair| {
                     // The offset in the body frame: Σ w ((p − c) · spread) (r − r̄) / W over the
                     // cluster, as h is over (p − c).
                     let mut offset_body = Vec3::zeros();

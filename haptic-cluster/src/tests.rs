@@ -641,6 +641,34 @@ fn paired(k: usize) -> Clusterer {
 }
 
 #[test]
+fn contacts_at_one_point_far_from_the_origin_get_no_torque_pair() {
+    // Five contacts at one point 3.5 cm out, with different normals, depths and areas (the
+    // shrunk case of the property test below): no spread, so one spring where they are, and
+    // none placed by the rounding of a covariance taken about another point.
+    let p = Vec3::new(
+        0.019454679097535697,
+        -9.571798657132067e-5,
+        -0.029397302818075913,
+    );
+    let contacts: Vec<Contact> = (0..5)
+        .map(|i| {
+            let n = Vec3::new(0.1 * i as Real, -0.2, 1.0);
+            contact(p, n, 1e-4 * i as Real).with_area(1e-7 * (1.0 + i as Real))
+        })
+        .collect();
+    let mut c = paired(1);
+    let mut reps = ContactSet::new();
+    c.cluster(&contacts, DELTA_M, &mut reps).unwrap();
+    assert_eq!(reps.len(), 1, "{reps:?}");
+    let r = &reps.as_slice()[0];
+    // Their weighted mean, to rounding.
+    assert!(
+        (r.p_a - p).norm() <= 1e-16 && (r.r_a - p).norm() <= 1e-16,
+        "{r:?}"
+    );
+}
+
+#[test]
 fn torque_pairs_give_a_tilted_faces_wrench_whatever_the_partition() {
     // A face pressed deeper at one side: its centre of pressure is off every cluster's centroid,
     // so one spring per cluster loses a couple, and how much depends on the partition.
