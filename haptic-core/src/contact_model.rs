@@ -2,10 +2,10 @@
 
 use crate::body::RigidBody;
 use crate::contact::Contact;
-use crate::contact_frame::{FixedFrame, add_point_wrench_jacobian};
+use crate::contact_frame::FixedFrame;
 use crate::error::ContactModelError;
 use crate::integrator::JacobianKind;
-use crate::math::{Real, StateVector, Vec3, WrenchJacobian, WrenchVector, skew};
+use crate::math::{IQ, Real, StateVector, Vec3, WrenchJacobian, WrenchVector};
 use crate::state::{Kinematics, ToolState, Wrench};
 use nalgebra::RowSVector;
 
@@ -329,19 +329,24 @@ impl ContactTangent {
         let force = -phi * frame.n;
         if let Some(j) = jacobian {
             if phi > 0.0 {
-                let dforce = -(frame.n * dphi) * frame.normal_force_gradient(kin, &rho);
-                match kind {
-                    // Capped (φ' = 0) the force is constant but its torque still turns with ρ.
-                    JacobianKind::Exact => {
-                        add_point_wrench_jacobian(kin, &frame.r_a, &rho, &force, &dforce, j);
-                    }
-                    // The material part alone: (∂F/∂y, [ρ]× ∂F/∂y).
-                    JacobianKind::Material => {
-                        let dtorque = skew(&rho) * dforce;
-                        let mut top = j.fixed_rows_mut::<3>(0);
-                        top += dforce;
-                        let mut bottom = j.fixed_rows_mut::<3>(3);
-                        bottom += dtorque;
+                // The material part `(∂F/∂y, [ρ]× ∂F/∂y)` is one rank-1 block: `∂F/∂y = c_F g`
+                // with `c_F = −φ' n` and `g = ∂λ/∂y`, so `∂T/∂y = (ρ × c_F) g` (eqs. 38–41 with
+                // the force along a fixed normal). Added as such, without the 3×13 products.
+                let g = frame.normal_force_gradient(kin, &rho);
+                let c_force = frame.n * -dphi;
+                let c_torque = rho.cross(&c_force);
+                let c = WrenchVector::new(
+                    c_force.x, c_force.y, c_force.z, c_torque.x, c_torque.y, c_torque.z,
+                );
+                j.ger(1.0, &c, &g.transpose(), 1.0);
+                // Exact: the torque also turns with ρ, `−[F]× ∂ρ/∂q_k` (capped, φ' = 0, this
+                // is all there is).
+                if kind == JacobianKind::Exact {
+                    for q in 0..4 {
+                        let dt_q = force.cross(&(kin.r_partials[q] * frame.r_a));
+                        for a in 0..3 {
+                            j[(3 + a, IQ + q)] -= dt_q[a];
+                        }
                     }
                 }
             }
@@ -599,6 +604,12 @@ impl LinearizedContact {
             None => {
                 for t in self.tangents() {
                     sum += one(t, None);
+                }
+            }
+            // Unscaled (the usual case) the tangents add into `j` directly.
+            Some((j, _)) if scale == 1.0 => {
+                for t in self.tangents() {
+                    sum += one(t, Some(&mut *j));
                 }
             }
             Some((j, _)) => {

@@ -354,15 +354,18 @@ impl Kinematics {
         let r = rotation_matrix(&q);
         let r_partials = rotation_partials(&q);
         let ib_inv = body.inertia_body_inv();
-        let inertia_world_inv = r * ib_inv * r.transpose();
+        let r_ib_inv = r * ib_inv;
+        let inertia_world_inv = r_ib_inv * r.transpose();
         let l: Vec3 = y.fixed_rows::<3>(IL).into_owned();
         let p: Vec3 = y.fixed_rows::<3>(IP).into_owned();
         let omega = inertia_world_inv * l;
+        // eq. 11, column k: `(R_k I_b⁻¹ Rᵀ + R I_b⁻¹ R_kᵀ) L`, as matrix-vector products (the
+        // 3×3 products would cost four times as much, on every haptic step).
+        let body_l = ib_inv * (r.transpose() * l);
         let mut omega_q = nalgebra::Matrix3x4::zeros();
         for k in 0..4 {
             let rk = &r_partials[k];
-            let d = rk * ib_inv * r.transpose() + r * ib_inv * rk.transpose();
-            omega_q.set_column(k, &(d * l));
+            omega_q.set_column(k, &(rk * body_l + r_ib_inv * (rk.transpose() * l)));
         }
         Self {
             r,
