@@ -705,7 +705,8 @@ fn a_box_and_its_subdivided_copy_give_the_same_contact_sums() {
 
 /// The "a box and its subdivided copy give the same wrench within 1 % face-on-face",
 /// through the whole contact stage: the contacts at threshold 0, clustered into five clusters
-/// (each a torque pair of two springs with their stiffness shares), and the penalty model's
+/// (each a torque pair of two springs with their stiffness shares, or one spring where a
+/// cluster holds a single contact), and the penalty model's
 /// wrench at them with the tool at rest, `(F, T / r)` about the tool's origin. Each
 /// tessellation clusters cold from its own contacts, so the partitions differ; the force does
 /// not (to 1e-6), and the torque is within 1 %. (Without the stiffness shares the force was
@@ -745,11 +746,13 @@ fn a_box_and_its_subdivided_copy_give_the_same_clustered_wrench() {
             .unwrap()
             .cluster(contacts.as_slice(), delta, &mut reps)
             .unwrap();
-        assert_eq!(
-            (stats.clusters, reps.len()),
-            (5, 10),
-            "{k_tool}×{k_floor}: {} contacts",
-            contacts.len()
+        // A torque pair per cluster whose contacts spread, one spring for a lone contact.
+        assert!(
+            stats.clusters == 5 && (6..=10).contains(&reps.len()),
+            "{k_tool}×{k_floor}: {} contacts, {} clusters, {} springs",
+            contacts.len(),
+            stats.clusters,
+            reps.len()
         );
         let body = RigidBody::sphere(0.05, lever).unwrap();
         let y = ToolState::at_rest(pose).to_vector();
