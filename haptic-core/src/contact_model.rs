@@ -421,24 +421,41 @@ impl PartialEq for LinearizedContact {
     /// Equal models: the same `y₀`, wrench, count, depth and scale, and the same tangents in
     /// use (the unused storage is not compared).
     fn eq(&self, other: &Self) -> bool {
-        self.y0 == other.y0
-            && self.wrench0 == other.wrench0
-            && self.contact_count == other.contact_count
-            && self.max_depth_m == other.max_depth_m
-            && self.scale == other.scale
+        // Destructured, so that a field added later is not left out of the comparison.
+        let Self {
+            y0,
+            wrench0,
+            tangents: _,
+            contact_count,
+            max_depth_m,
+            scale,
+        } = self;
+        *y0 == other.y0
+            && *wrench0 == other.wrench0
+            && *contact_count == other.contact_count
+            && *max_depth_m == other.max_depth_m
+            && *scale == other.scale
             && self.tangents() == other.tangents()
     }
 }
 
 impl std::fmt::Debug for LinearizedContact {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        let Self {
+            y0,
+            wrench0,
+            tangents: _,
+            contact_count,
+            max_depth_m,
+            scale,
+        } = self;
         f.debug_struct("LinearizedContact")
-            .field("y0", &self.y0)
-            .field("wrench0", &self.wrench0)
+            .field("y0", y0)
+            .field("wrench0", wrench0)
             .field("tangents", &self.tangents())
-            .field("contact_count", &self.contact_count)
-            .field("max_depth_m", &self.max_depth_m)
-            .field("scale", &self.scale)
+            .field("contact_count", contact_count)
+            .field("max_depth_m", max_depth_m)
+            .field("scale", scale)
             .finish()
     }
 }
@@ -448,24 +465,40 @@ impl LinearizedContact {
     /// (which is unused once the count is 0): a few dozen bytes written instead of 15 kB.
     #[inline]
     pub fn clear(&mut self) {
-        self.y0 = StateVector::zeros();
-        self.wrench0 = Wrench::zero();
-        self.contact_count = 0;
-        self.max_depth_m = Real::NEG_INFINITY;
-        self.scale = 1.0;
+        let Self {
+            y0,
+            wrench0,
+            tangents: _,
+            contact_count,
+            max_depth_m,
+            scale,
+        } = self;
+        *y0 = StateVector::zeros();
+        *wrench0 = Wrench::zero();
+        *contact_count = 0;
+        *max_depth_m = Real::NEG_INFINITY;
+        *scale = 1.0;
     }
 
     /// Makes this model equal to `other`, copying only the tangents `other` has in use (a
     /// model with five contacts copies five tangents, not [`MAX_REPRESENTATIVES`]).
     #[inline]
     pub fn copy_from(&mut self, other: &Self) {
-        let count = other.contact_count.min(MAX_REPRESENTATIVES);
-        self.y0 = other.y0;
-        self.wrench0 = other.wrench0;
-        self.tangents[..count].copy_from_slice(&other.tangents[..count]);
-        self.contact_count = other.contact_count;
-        self.max_depth_m = other.max_depth_m;
-        self.scale = other.scale;
+        let Self {
+            y0,
+            wrench0,
+            tangents,
+            contact_count,
+            max_depth_m,
+            scale,
+        } = other;
+        let count = (*contact_count).min(MAX_REPRESENTATIVES);
+        self.y0 = *y0;
+        self.wrench0 = *wrench0;
+        self.tangents[..count].copy_from_slice(&tangents[..count]);
+        self.contact_count = *contact_count;
+        self.max_depth_m = *max_depth_m;
+        self.scale = *scale;
     }
 
     /// No contact: zero wrench and zero Jacobian.

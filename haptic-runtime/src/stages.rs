@@ -65,14 +65,25 @@ impl ContactUpdate {
     /// model's whole 15 kB.
     #[inline]
     pub fn copy_from(&mut self, other: &Self) {
-        self.seq = other.seq;
-        self.query_time_s = other.query_time_s;
-        self.model.copy_from(&other.model);
-        self.raw_contact_count = other.raw_contact_count;
-        self.cluster_count = other.cluster_count;
-        self.max_penetration_m = other.max_penetration_m;
-        self.broad_phase_only = other.broad_phase_only;
-        self.error_threshold = other.error_threshold;
+        // Destructured, so that a field added later cannot be left out of the copy.
+        let Self {
+            seq,
+            query_time_s,
+            model,
+            raw_contact_count,
+            cluster_count,
+            max_penetration_m,
+            broad_phase_only,
+            error_threshold,
+        } = other;
+        self.seq = *seq;
+        self.query_time_s = *query_time_s;
+        self.model.copy_from(model);
+        self.raw_contact_count = *raw_contact_count;
+        self.cluster_count = *cluster_count;
+        self.max_penetration_m = *max_penetration_m;
+        self.broad_phase_only = *broad_phase_only;
+        self.error_threshold = *error_threshold;
     }
 }
 
