@@ -1,11 +1,15 @@
 //! What each node's piece does not show of its surface: the area of the triangles below the node,
 //! the mean and variance of their heights above the piece's plane (area-weighted, exact for
-//! triangles), and how far their normals agree (the normal coherence, `stopping.rs`). A coarse
-//! pair integrates the penalty over its pieces (`crate::slab`); these moments say where the
-//! surfaces the pieces simplify lie about them. Derived from the leaves' triangles in one pass,
+//! triangles), how far their normals agree (the normal coherence, `stopping.rs`), and how their
+//! normals turn across the piece (the normal field). A coarse pair integrates the penalty over its
+//! pieces (`crate::slab`); these moments say where the surfaces the pieces simplify lie about them
+//! and which way they face where a region lies. Derived from the leaves' triangles in one pass,
 //! so they are not saved with a hierarchy.
 
 use haptic_core::{Mat3, Real, Vec3};
+use nalgebra::{Matrix2, Matrix3x2, Vector2};
+
+use crate::geometry::plane_basis;
 
 use super::build::Node;
 
@@ -26,6 +30,33 @@ pub(crate) struct SurfaceMoments {
     /// The normal coherence `|Σ aᵢ nᵢ| / Σ aᵢ` of the triangles below the node: 1 for a flat
     /// patch (and a leaf), toward 0 where their faces cancel (`stopping.rs`).
     pub coherence: Real,
+    /// The area-weighted centroid of the triangles below the node (mesh frame, m).
+    pub centroid: Vec3,
+    /// How the surface's normal turns across the piece: the least-squares linear field
+    /// `n(x) ≈ n_piece + G (u·(x − centroid), w·(x − centroid))` of the triangles' normals over
+    /// the piece's plane (`(u, w)` its [`plane_basis`]), area-weighted; 1/m. Zero for a flat
+    /// patch and a leaf. See [`SurfaceMoments::normal_at`].
+    pub normal_gradient: Matrix3x2<Real>,
+}
+
+impl SurfaceMoments {
+    /// The unit normal of the surface below the piece of normal `piece_normal` at `x` (mesh
+    /// frame), from the linear normal field: where a region covers part of a curved piece, its
+    /// force is along the surface's normal there, not along the piece's mean. The piece's normal
+    /// where the field gives no direction on the piece's side (turned by a right angle or more,
+    /// or not finite).
+    #[inline]
+    pub fn normal_at(&self, piece_normal: &Vec3, x: &Vec3) -> Vec3 {
+        let (u, w) = plane_basis(piece_normal);
+        let d = x - self.centroid;
+        let n = piece_normal + self.normal_gradient * Vector2::new(u.dot(&d), w.dot(&d));
+        let along = n.dot(piece_normal);
+        if along > 0.0 && along.is_finite() {
+            n / n.norm()
+        } else {
+            *piece_normal
+        }
+    }
 }
 
 /// The moments of every node. The children of node `i` (`i + 1` and `right`) come after it,
@@ -38,6 +69,8 @@ pub(crate) fn surface_moments(nodes: &[Node], piece: &[Vec3]) -> Vec<SurfaceMome
     let mut raw = vec![(0.0, Vec3::zeros(), Mat3::zeros()); nodes.len()];
     // ∫n dA: the vector area.
     let mut vector_area = vec![Vec3::zeros(); nodes.len()];
+    // ∫n xᵀ dA, for the normal field.
+    let mut normal_moment = vec![Mat3::zeros(); nodes.len()];
     let mut out = vec![SurfaceMoments::default(); nodes.len()];
     for i in (0..nodes.len()).rev() {
         let n = &nodes[i];
@@ -49,6 +82,7 @@ pub(crate) fn surface_moments(nodes: &[Node], piece: &[Vec3]) -> Vec<SurfaceMome
                     vector_area[i] = 0.5 * (b - a).cross(&(c - a));
                     let area = vector_area[i].norm();
                     let sum = a + b + c;
+                    normal_moment[i] = vector_area[i] * (sum / 3.0).transpose();
                     // ∫x xᵀ over a triangle: A/12 (Σ vᵢ vᵢᵀ + (Σ vᵢ)(Σ vᵢ)ᵀ).
                     let second = (a * a.transpose()
                         + b * b.transpose()
@@ -65,6 +99,8 @@ pub(crate) fn surface_moments(nodes: &[Node], piece: &[Vec3]) -> Vec<SurfaceMome
             let r = raw.get(n.right as usize).copied().unwrap_or(zero);
             let va = |j: usize| vector_area.get(j).copied().unwrap_or_else(Vec3::zeros);
             vector_area[i] = va(i + 1) + va(n.right as usize);
+            let nm = |j: usize| normal_moment.get(j).copied().unwrap_or_else(Mat3::zeros);
+            normal_moment[i] = nm(i + 1) + nm(n.right as usize);
             (l.0 + r.0, l.1 + r.1, l.2 + r.2)
         };
         let (area, first, second) = raw[i];
@@ -86,6 +122,13 @@ pub(crate) fn surface_moments(nodes: &[Node], piece: &[Vec3]) -> Vec<SurfaceMome
             let second_h = n.normal.dot(&(second * n.normal)) / area - 2.0 * c * nf / area + c * c;
             m.height_mean_m = mean;
             m.height_var_m2 = (second_h - mean * mean).max(0.0);
+            let xbar = first / area;
+            m.centroid = xbar + origin;
+            m.normal_gradient = normal_gradient(
+                &n.normal,
+                &(second - first * xbar.transpose()),
+                &(normal_moment[i] - vector_area[i] * xbar.transpose()),
+            );
             let s = n.piece_start as usize;
             if let Some(p) = piece.get(s..s + n.piece_len as usize) {
                 let piece_area = polygon_area(p);
@@ -97,6 +140,29 @@ pub(crate) fn surface_moments(nodes: &[Node], piece: &[Vec3]) -> Vec<SurfaceMome
         out[i] = m;
     }
     out
+}
+
+/// The least-squares gradient `G` (3 × 2, 1/m) of the normals over the plane of `normal`, from the
+/// centred moments `∫(x − x̄)(x − x̄)ᵀ dA` (`cov_xx`) and `∫(n − n̄)(x − x̄)ᵀ dA` (`cov_nx`):
+/// `G = M C⁻¹` with `M = cov_nx S`, `C = Sᵀ cov_xx S`, `S = [u w]`. `C` is regularised by 10⁻⁹ of
+/// its trace, so that a strip of triangles in a row (no spread across it) gets the gradient along
+/// it and none across; zero where there is no spread at all.
+fn normal_gradient(normal: &Vec3, cov_xx: &Mat3, cov_nx: &Mat3) -> Matrix3x2<Real> {
+    let (u, w) = plane_basis(normal);
+    let s = Matrix3x2::from_columns(&[u, w]);
+    let c = s.transpose() * cov_xx * s;
+    let c = c + Matrix2::identity() * (1e-9 * c.trace());
+    match c.try_inverse() {
+        Some(inv) if c.trace() > 0.0 => {
+            let g = cov_nx * s * inv;
+            if g.iter().all(|x| x.is_finite()) {
+                g
+            } else {
+                Matrix3x2::zeros()
+            }
+        }
+        _ => Matrix3x2::zeros(),
+    }
 }
 
 /// Area of a planar convex polygon (m²).
@@ -112,7 +178,55 @@ fn polygon_area(p: &[Vec3]) -> Real {
 mod tests {
     use super::*;
     use crate::lod::Hierarchy;
-    use crate::lod::testmesh::mesh;
+    use crate::lod::testmesh::{icosphere_raw, mesh};
+
+    /// On a sphere, whose normal is `x / r` everywhere, the normal field of every node that
+    /// covers a cap of at least 16 triangles (their normals within about 37° of their mean:
+    /// coherence ≥ 0.9) gives the triangles' normals at their centroids at least five times
+    /// closer than the piece's own normal does. (Below a few triangles, what is left is the
+    /// facets' own scatter about the sphere's normal, which no smooth field follows.)
+    #[test]
+    fn the_normal_field_follows_a_sphere() {
+        let (v, t) = icosphere_raw(4);
+        let r = 0.05;
+        let centre = Vec3::new(0.3, -0.2, 0.1);
+        let m = mesh(v.iter().map(|p| centre + p * r).collect(), t);
+        let h = Hierarchy::build(&m);
+        let moments = surface_moments(&h.nodes, &h.piece);
+        let angle = |a: &Vec3, b: &Vec3| a.dot(b).clamp(-1.0, 1.0).acos();
+        let mut caps = 0;
+        for (i, node) in h.nodes.iter().enumerate() {
+            if node.is_leaf() || moments[i].coherence < 0.9 {
+                continue;
+            }
+            let (mut with_field, mut piece_only, mut count) = (0.0, 0.0, 0);
+            let mut stack = vec![i];
+            while let Some(j) = stack.pop() {
+                let nj = &h.nodes[j];
+                if !nj.is_leaf() {
+                    stack.push(j + 1);
+                    stack.push(nj.right as usize);
+                    continue;
+                }
+                let tri = m.triangle(nj.triangle as usize);
+                let x = (tri[0] + tri[1] + tri[2]) / 3.0;
+                let n = (tri[1] - tri[0]).cross(&(tri[2] - tri[0])).normalize();
+                with_field += angle(&moments[i].normal_at(&node.normal, &x), &n);
+                piece_only += angle(&node.normal, &n);
+                count += 1;
+            }
+            if count < 16 {
+                continue;
+            }
+            assert!(
+                with_field <= 0.2 * piece_only,
+                "node {i} (coherence {}): mean angle {with_field} with the field, {piece_only} without",
+                moments[i].coherence
+            );
+            caps += 1;
+        }
+        assert!(caps > 100, "{caps} caps");
+    }
 
     /// Against the moments summed triangle by triangle (each by a three-point rule exact for
     /// quadratics) for every node of a bumpy mesh.
@@ -156,8 +270,10 @@ mod tests {
             let height = |x: &Vec3| node.normal.dot(&(x - node.plane_point));
             let (mut a, mut s1, mut s2) = (0.0, 0.0, 0.0);
             let mut vector_area = Vec3::zeros();
+            let mut first = Vec3::zeros();
             for t in &tris_below {
                 let area = 0.5 * (t[1] - t[0]).cross(&(t[2] - t[0])).norm();
+                first += (t[0] + t[1] + t[2]) * (area / 3.0);
                 vector_area += 0.5 * (t[1] - t[0]).cross(&(t[2] - t[0]));
                 // Edge midpoints: exact for quadratics.
                 for (p, q) in [(0, 1), (1, 2), (2, 0)] {
@@ -178,8 +294,10 @@ mod tests {
             assert!(got.coherence <= 1.0);
             if node.is_leaf() {
                 assert_eq!((got.height_mean_m, got.height_var_m2), (0.0, 0.0));
+                assert_eq!(got.normal_gradient, Matrix3x2::zeros());
                 continue;
             }
+            assert!((got.centroid - first / a).norm() < 1e-12, "node {i}");
             let (mean, var) = (s1 / a, s2 / a - (s1 / a).powi(2));
             assert!(
                 (got.height_mean_m - mean).abs() < 1e-12,

@@ -305,7 +305,14 @@ pub(crate) fn collide(
                 continue;
             }
             if let Some(r) = regions.region {
-                let pc = r.pair_contact(&b.normal);
+                // Along the obstacle surface's normal where the region lies (the piece's own
+                // normal for a triangle, whose field is zero).
+                let nb = if leaf_b {
+                    b.normal
+                } else {
+                    mb.normal_at(&b.normal, &r.centroid)
+                };
+                let pc = r.pair_contact(&nb);
                 let (fa, fb) = if leaf_a && leaf_b {
                     (a.triangle, b.triangle)
                 } else {
