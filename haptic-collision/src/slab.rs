@@ -23,7 +23,7 @@
 //! variance ([`Weight`]). Without the spread a flat piece has less variance of depth than its
 //! surface, and the clustering's mean depth, read from `∫g²`, comes out shallower. Its contact
 //! pushes along the obstacle surface's normal at the region's centroid, from the piece's normal
-//! field ([`SurfaceMoments::normal_at`], given to [`RegionContact::pair_contact`] by the walk),
+//! field (`NormalField::normal_at` in `lod/moments.rs`, given to [`RegionContact::pair_contact`] by the walk),
 //! not along the piece's mean normal.
 
 use haptic_core::{Real, Vec3, gap_weight_m};

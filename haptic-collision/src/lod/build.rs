@@ -19,7 +19,7 @@ use rayon::prelude::*;
 
 use super::MAX_PIECE_VERTICES;
 use super::deviation::{DeviationScratch, final_deviation};
-use super::moments::{SurfaceMoments, surface_moments};
+use super::moments::{NormalField, SurfaceMoments, surface_moments};
 use super::split::TriangleData;
 use super::topology::{PARALLEL_TOPOLOGY_MIN, Tree};
 use crate::geometry::{closest_point_on_polygon_2d, plane_basis, triangle_normal};
@@ -72,6 +72,8 @@ pub struct Hierarchy {
     /// Area and height moments of the surface below each node, by node index (derived from
     /// the leaves' triangles, so not saved with the hierarchy).
     pub(crate) moments: Vec<SurfaceMoments>,
+    /// Per node: how its surface's normal turns across its piece (`moments.rs`).
+    pub(crate) normal_fields: Vec<NormalField>,
     radius_about_origin_m: Real,
     triangle_count: usize,
     height: usize,
@@ -172,11 +174,12 @@ impl Hierarchy {
             .iter()
             .map(|v| v.norm())
             .fold(0.0, Real::max);
-        let moments = surface_moments(&nodes, &piece);
+        let (moments, normal_fields) = surface_moments(&nodes, &piece);
         Self {
             nodes,
             piece,
             moments,
+            normal_fields,
             radius_about_origin_m,
             triangle_count: n,
             height,
@@ -204,11 +207,12 @@ impl Hierarchy {
         height: usize,
         build_s: Real,
     ) -> Self {
-        let moments = surface_moments(&nodes, &piece);
+        let (moments, normal_fields) = surface_moments(&nodes, &piece);
         Self {
             nodes,
             piece,
             moments,
+            normal_fields,
             radius_about_origin_m,
             triangle_count,
             height,
@@ -236,12 +240,18 @@ impl Hierarchy {
         self.nodes.capacity() * std::mem::size_of::<Node>()
             + self.piece.capacity() * std::mem::size_of::<Vec3>()
             + self.moments.capacity() * std::mem::size_of::<SurfaceMoments>()
+            + self.normal_fields.capacity() * std::mem::size_of::<NormalField>()
     }
 
     /// Area and height moments of the surface below node `i`.
     #[inline]
     pub(crate) fn moments_of(&self, i: u32) -> &SurfaceMoments {
         &self.moments[i as usize]
+    }
+
+    /// How node `i`'s surface normal turns across its piece.
+    pub(crate) fn normal_field_of(&self, i: u32) -> &NormalField {
+        &self.normal_fields[i as usize]
     }
 
     /// The piece of node `i` (vertices CCW about the node normal).

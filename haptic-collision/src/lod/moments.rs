@@ -30,16 +30,21 @@ pub(crate) struct SurfaceMoments {
     /// The normal coherence `|Σ aᵢ nᵢ| / Σ aᵢ` of the triangles below the node: 1 for a flat
     /// patch (and a leaf), toward 0 where their faces cancel (`stopping.rs`).
     pub coherence: Real,
-    /// The area-weighted centroid of the triangles below the node (mesh frame, m).
-    pub centroid: Vec3,
-    /// How the surface's normal turns across the piece: the least-squares linear field
-    /// `n(x) ≈ n_piece + G (u·(x − centroid), w·(x − centroid))` of the triangles' normals over
-    /// the piece's plane (`(u, w)` its [`plane_basis`]), area-weighted; 1/m. Zero for a flat
-    /// patch and a leaf. See [`SurfaceMoments::normal_at`].
-    pub normal_gradient: Matrix3x2<Real>,
 }
 
-impl SurfaceMoments {
+/// Per node: how the surface's normal turns across its piece, kept apart from
+/// [`SurfaceMoments`] because only a pair that writes a region reads it.
+#[derive(Debug, Clone, Copy, Default, PartialEq)]
+pub(crate) struct NormalField {
+    /// The area-weighted centroid of the triangles below the node (mesh frame, m).
+    pub centroid: Vec3,
+    /// The least-squares linear field of the triangles' normals over the piece's plane,
+    /// `n(x) ≈ n_piece + G (u·(x − centroid), w·(x − centroid))` (`(u, w)` its
+    /// [`plane_basis`]), area-weighted; 1/m. Zero for a flat patch and a leaf.
+    pub gradient: Matrix3x2<Real>,
+}
+
+impl NormalField {
     /// The unit normal of the surface below the piece of normal `piece_normal` at `x` (mesh
     /// frame), from the linear normal field: where a region covers part of a curved piece, its
     /// force is along the surface's normal there, not along the piece's mean. The piece's normal
@@ -49,7 +54,7 @@ impl SurfaceMoments {
     pub fn normal_at(&self, piece_normal: &Vec3, x: &Vec3) -> Vec3 {
         let (u, w) = plane_basis(piece_normal);
         let d = x - self.centroid;
-        let n = piece_normal + self.normal_gradient * Vector2::new(u.dot(&d), w.dot(&d));
+        let n = piece_normal + self.gradient * Vector2::new(u.dot(&d), w.dot(&d));
         let along = n.dot(piece_normal);
         if along > 0.0 && along.is_finite() {
             n / n.norm()
@@ -59,10 +64,13 @@ impl SurfaceMoments {
     }
 }
 
-/// The moments of every node. The children of node `i` (`i + 1` and `right`) come after it,
-/// so one pass from the end sums their raw moments (`∫dA`, `∫x dA`, `∫x xᵀ dA`, `∫n dA`); a
-/// leaf's piece is its triangle.
-pub(crate) fn surface_moments(nodes: &[Node], piece: &[Vec3]) -> Vec<SurfaceMoments> {
+/// The moments and normal fields of every node. The children of node `i` (`i + 1` and `right`)
+/// come after it, so one pass from the end sums their raw moments (`∫dA`, `∫x dA`, `∫x xᵀ dA`,
+/// `∫n dA`, `∫n xᵀ dA`); a leaf's piece is its triangle.
+pub(crate) fn surface_moments(
+    nodes: &[Node],
+    piece: &[Vec3],
+) -> (Vec<SurfaceMoments>, Vec<NormalField>) {
     // Raw moments about the first leaf's first vertex, so that they stay small for a patch far
     // from the mesh's origin.
     let origin = piece.first().copied().unwrap_or_else(Vec3::zeros);
@@ -72,6 +80,7 @@ pub(crate) fn surface_moments(nodes: &[Node], piece: &[Vec3]) -> Vec<SurfaceMome
     // ∫n xᵀ dA, for the normal field.
     let mut normal_moment = vec![Mat3::zeros(); nodes.len()];
     let mut out = vec![SurfaceMoments::default(); nodes.len()];
+    let mut fields = vec![NormalField::default(); nodes.len()];
     for i in (0..nodes.len()).rev() {
         let n = &nodes[i];
         raw[i] = if n.is_leaf() {
@@ -123,8 +132,8 @@ pub(crate) fn surface_moments(nodes: &[Node], piece: &[Vec3]) -> Vec<SurfaceMome
             m.height_mean_m = mean;
             m.height_var_m2 = (second_h - mean * mean).max(0.0);
             let xbar = first / area;
-            m.centroid = xbar + origin;
-            m.normal_gradient = normal_gradient(
+            fields[i].centroid = xbar + origin;
+            fields[i].gradient = normal_gradient(
                 &n.normal,
                 &(second - first * xbar.transpose()),
                 &(normal_moment[i] - vector_area[i] * xbar.transpose()),
@@ -139,7 +148,7 @@ pub(crate) fn surface_moments(nodes: &[Node], piece: &[Vec3]) -> Vec<SurfaceMome
         }
         out[i] = m;
     }
-    out
+    (out, fields)
 }
 
 /// The least-squares gradient `G` (3 × 2, 1/m) of the normals over the plane of `normal`, from the
@@ -192,7 +201,7 @@ mod tests {
         let centre = Vec3::new(0.3, -0.2, 0.1);
         let m = mesh(v.iter().map(|p| centre + p * r).collect(), t);
         let h = Hierarchy::build(&m);
-        let moments = surface_moments(&h.nodes, &h.piece);
+        let (moments, fields) = surface_moments(&h.nodes, &h.piece);
         let angle = |a: &Vec3, b: &Vec3| a.dot(b).clamp(-1.0, 1.0).acos();
         let mut caps = 0;
         for (i, node) in h.nodes.iter().enumerate() {
@@ -211,7 +220,7 @@ mod tests {
                 let tri = m.triangle(nj.triangle as usize);
                 let x = (tri[0] + tri[1] + tri[2]) / 3.0;
                 let n = (tri[1] - tri[0]).cross(&(tri[2] - tri[0])).normalize();
-                with_field += angle(&moments[i].normal_at(&node.normal, &x), &n);
+                with_field += angle(&fields[i].normal_at(&node.normal, &x), &n);
                 piece_only += angle(&node.normal, &n);
                 count += 1;
             }
@@ -254,7 +263,7 @@ mod tests {
         }
         let m = mesh(verts, tris);
         let h = Hierarchy::build(&m);
-        let moments = surface_moments(&h.nodes, &h.piece);
+        let (moments, fields) = surface_moments(&h.nodes, &h.piece);
         for (i, node) in h.nodes.iter().enumerate() {
             let mut tris_below = Vec::new();
             let mut stack = vec![i];
@@ -294,10 +303,10 @@ mod tests {
             assert!(got.coherence <= 1.0);
             if node.is_leaf() {
                 assert_eq!((got.height_mean_m, got.height_var_m2), (0.0, 0.0));
-                assert_eq!(got.normal_gradient, Matrix3x2::zeros());
+                assert_eq!(fields[i].gradient, Matrix3x2::zeros());
                 continue;
             }
-            assert!((got.centroid - first / a).norm() < 1e-12, "node {i}");
+            assert!((fields[i].centroid - first / a).norm() < 1e-12, "node {i}");
             let (mean, var) = (s1 / a, s2 / a - (s1 / a).powi(2));
             assert!(
                 (got.height_mean_m - mean).abs() < 1e-12,

@@ -310,7 +310,7 @@ pub(crate) fn collide(
                 let nb = if leaf_b {
                     b.normal
                 } else {
-                    mb.normal_at(&b.normal, &r.centroid)
+                    obs.normal_field_of(ib).normal_at(&b.normal, &r.centroid)
                 };
                 let pc = r.pair_contact(&nb);
                 let (fa, fb) = if leaf_a && leaf_b {
