@@ -609,6 +609,17 @@ mod tests {
             Hierarchy::read_from(cut, &mesh),
             Err(HierarchyFileError::Truncated)
         ));
+        // Cut anywhere: refused, never read past its end (the header's counts ask for more).
+        for len in (0..bytes.len()).step_by(37).chain([bytes.len() - 1]) {
+            assert!(
+                matches!(
+                    Hierarchy::read_from(&bytes[..len], &mesh),
+                    Err(HierarchyFileError::Truncated | HierarchyFileError::NotAHierarchy)
+                ),
+                "a file cut to {len} of {} bytes was not refused as cut short",
+                bytes.len()
+            );
+        }
         assert!(matches!(
             Hierarchy::read_from(&b"solid cube\nfacet normal"[..], &mesh),
             Err(HierarchyFileError::NotAHierarchy)
