@@ -299,7 +299,7 @@ impl Hierarchy {
             .saturating_add(HEADER_BYTES + CHECKSUM_BYTES);
         let mut file = Vec::new();
         input
-            .take(bytes_max as u64 + 1)
+            .take((bytes_max as u64).saturating_add(1))
             .read_to_end(&mut file)
             .map_err(|source| HierarchyFileError::Io {
                 path: PathBuf::new(),
