@@ -417,11 +417,21 @@ impl Default for LinearizedContact {
     }
 }
 
-impl PartialEq for LinearizedContact {
-    /// Equal models: the same `y₀`, wrench, count, depth and scale, and the same tangents in
-    /// use (the unused storage is not compared).
-    fn eq(&self, other: &Self) -> bool {
-        // Destructured, so that a field added later is not left out of the comparison.
+/// A model's fields as `PartialEq` and `Debug` see them: the tangents in use only (the unused
+/// storage is neither compared nor printed).
+type ModelParts<'a> = (
+    &'a StateVector,
+    &'a Wrench,
+    &'a [ContactTangent],
+    usize,
+    Real,
+    Real,
+);
+
+impl LinearizedContact {
+    /// The fields, destructured, so that a field added later is not left out of the comparison
+    /// or the printout.
+    fn parts(&self) -> ModelParts<'_> {
         let Self {
             y0,
             wrench0,
@@ -430,32 +440,35 @@ impl PartialEq for LinearizedContact {
             max_depth_m,
             scale,
         } = self;
-        *y0 == other.y0
-            && *wrench0 == other.wrench0
-            && *contact_count == other.contact_count
-            && *max_depth_m == other.max_depth_m
-            && *scale == other.scale
-            && self.tangents() == other.tangents()
+        (
+            y0,
+            wrench0,
+            self.tangents(),
+            *contact_count,
+            *max_depth_m,
+            *scale,
+        )
+    }
+}
+
+impl PartialEq for LinearizedContact {
+    /// Equal models: the same `y₀`, wrench, count, depth and scale, and the same tangents in
+    /// use (the unused storage is not compared).
+    fn eq(&self, other: &Self) -> bool {
+        self.parts() == other.parts()
     }
 }
 
 impl std::fmt::Debug for LinearizedContact {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        let Self {
-            y0,
-            wrench0,
-            tangents: _,
-            contact_count,
-            max_depth_m,
-            scale,
-        } = self;
+        let (y0, wrench0, tangents, contact_count, max_depth_m, scale) = self.parts();
         f.debug_struct("LinearizedContact")
             .field("y0", y0)
             .field("wrench0", wrench0)
-            .field("tangents", &self.tangents())
-            .field("contact_count", contact_count)
-            .field("max_depth_m", max_depth_m)
-            .field("scale", scale)
+            .field("tangents", &tangents)
+            .field("contact_count", &contact_count)
+            .field("max_depth_m", &max_depth_m)
+            .field("scale", &scale)
             .finish()
     }
 }
