@@ -30,7 +30,10 @@
 //!   penalty integrated over the contacts themselves, unclustered
 //!   (`wrench_error_rel_unclustered_*`, see
 //!   [`super::wrench::integrated_wrench`]): the back-end's own error,
-//!   apart from the clustering's.
+//!   apart from the clustering's. Beside them, `force_cancellation_median`: how many times the
+//!   reference's net force is smaller than its contacts' forces
+//!   ([`super::wrench::force_cancellation`]), the factor by which the contacts' own relative
+//!   errors can grow in the net wrench's.
 //! - Output: `DIR/collision.json` and `DIR/collision_work_precision.svg`; each row has the mean
 //!   and the most contacts a query wrote (`contacts_mean`, `contacts_max`) and the most it found
 //!   before compaction (`raw_contacts_max`).
@@ -51,7 +54,7 @@ use haptic_dynamics::penalty::{PenaltyModel, PenaltyParams};
 use nalgebra::UnitQuaternion;
 use serde::Serialize;
 
-use super::wrench::{integrated_wrench, pose_errors, relative_error};
+use super::wrench::{force_cancellation, integrated_wrench, pose_errors, relative_error};
 use crate::common;
 
 /// LOD error thresholds, fractions of the tool's bounding radius.
@@ -170,6 +173,10 @@ pub(super) fn measure(
         quantile(&reference.cold_errors, 0.5),
         quantile(&reference.cold_errors, 0.9)
     );
+    println!(
+        "force cancellation (reference contacts, sum of |f_i| over |sum of f_i|): median {:.1}",
+        quantile(&reference.cancellation, 0.5)
+    );
 
     // A far tool costs the broad phase only.
     let far = Pose::from_position(Vec3::new(10.0, 10.0, 10.0));
@@ -253,6 +260,7 @@ pub fn run(args: &super::CollisionArgs, out: &crate::OutArgs) -> anyhow::Result<
         speedup_lod_2_5_percent_vs_parry: m.speedup_2_5,
         clustering_variability_rel_median: quantile(&m.reference.cold_errors, 0.5),
         clustering_variability_rel_p90: quantile(&m.reference.cold_errors, 0.9),
+        force_cancellation_median: quantile(&m.reference.cancellation, 0.5),
         rows: &m.rows,
     };
     common::write_json(&dir.join("collision.json"), &report)?;
@@ -286,6 +294,8 @@ pub(super) struct RunResult {
     errors_chained: Vec<Real>,
     /// Reference run only: per pose, its contacts clustered cold against its warm chain.
     pub cold_errors: Vec<Real>,
+    /// Per pose with a net force (first pass), the contacts' [`force_cancellation`].
+    pub cancellation: Vec<Real>,
     /// The penalty integrated over the contacts' own areas, per pose (first pass); `None` where
     /// a contact has no area (a back-end that does not measure it).
     integrated: Vec<Option<[Real; 6]>>,
@@ -392,6 +402,8 @@ struct CollisionReport<'a> {
     speedup_lod_2_5_percent_vs_parry: Real,
     clustering_variability_rel_median: Real,
     clustering_variability_rel_p90: Real,
+    /// The reference's contacts' [`force_cancellation`], median over the poses with a net force.
+    force_cancellation_median: Real,
     rows: &'a [Row],
 }
 
@@ -421,6 +433,7 @@ where
     let mut raw_contacts_max = 0usize;
     let mut cold_errors = Vec::new();
     let mut integrated = Vec::with_capacity(scene.poses.len());
+    let mut cancellation = Vec::with_capacity(scene.poses.len());
     for pass in 0..passes {
         for (i, pose) in scene.poses.iter().enumerate() {
             let t = Instant::now();
@@ -435,6 +448,7 @@ where
             raw_contacts_max = raw_contacts_max.max((st.raw_contacts as usize).max(out.len()));
             node_pairs += st.node_pairs_tested;
             integrated.push(integrated_wrench(out.as_slice(), pose, scene.delta_m));
+            cancellation.extend(force_cancellation(out.as_slice(), scene.delta_m));
             let w = chained.wrench(&out, pose, scene.delta_m)?;
             chained_wrenches.push(w);
             match reference {
@@ -493,6 +507,7 @@ where
         errors: errors_against(&wrenches)?,
         errors_chained: errors_against(&chained_wrenches)?,
         cold_errors,
+        cancellation,
         wrenches,
         cluster_centres,
     })

@@ -21,6 +21,10 @@
 //!   its chain of warm starts: how far two clusterings of the same contacts differ. Where it is
 //!   large, errors of that size come from where Lloyd's method draws its boundaries rather than
 //!   from the contacts (the error columns cluster from shared seeds, so they can be smaller).
+//! - `force_cancellation_median` per scene: the reference's `Σ |fᵢ| / |Σ fᵢ|`, median over the
+//!   poses (`wrench::force_cancellation`). Where it is large, the net wrench is a small residual
+//!   of opposed forces, and a relative error of the contacts' forces grows by up to that factor
+//!   in the net wrench's.
 //! - Output: `DIR/suite.json` (every row with its scene, the fields of `collision.json`'s rows,
 //!   and `tessellation_error_rel`; per scene its builds and speed-up; `suite_worst`, the worst
 //!   figure over the scenes for each of issue 15's goals) and `DIR/suite_<scene>.svg`.
@@ -343,6 +347,9 @@ struct SuiteScene {
     /// differ on this scene (`collision.json`'s field of the same name).
     clustering_variability_rel_median: Real,
     clustering_variability_rel_p90: Real,
+    /// How many times the reference's net force is smaller than the forces of its contacts,
+    /// median over the poses (`collision.json`'s field of the same name).
+    force_cancellation_median: Real,
 }
 
 /// The worst figure over the scenes, for each goal (as issue 15's acceptance reads them; a NaN
@@ -485,6 +492,7 @@ pub(super) fn run(
             tessellation_error_rel_p90: t.map(|t| t.1),
             clustering_variability_rel_median: collision::quantile(&m.reference.cold_errors, 0.5),
             clustering_variability_rel_p90: collision::quantile(&m.reference.cold_errors, 0.9),
+            force_cancellation_median: collision::quantile(&m.reference.cancellation, 0.5),
         });
         for r in &m.rows {
             rows.push(SuiteRow {
@@ -549,7 +557,7 @@ pub(super) fn run(
     };
     println!();
     println!(
-        "{:<18} {:>8} {:>8} {:>10} {:>10} {:>12} {:>12} {:>9} {:>9} {:>8}",
+        "{:<18} {:>8} {:>8} {:>10} {:>10} {:>12} {:>12} {:>13} {:>9} {:>9} {:>8}",
         "scene",
         "tool",
         "obstacle",
@@ -557,6 +565,7 @@ pub(super) fn run(
         "chained",
         "unclustered",
         "clustering",
+        "cancellation",
         "contacts",
         "speed-up",
         "build s"
@@ -574,7 +583,7 @@ pub(super) fn run(
             .max()
             .unwrap_or(0);
         println!(
-            "{:<18} {:>8} {:>8} {:>10.3} {:>10.3} {:>12.3} {:>12.3} {:>9} {:>8.1}× {:>8.2}{}",
+            "{:<18} {:>8} {:>8} {:>10.3} {:>10.3} {:>12.3} {:>12.3} {:>13.1} {:>9} {:>8.1}× {:>8.2}{}",
             s.name,
             s.tool_triangles,
             s.obstacle_triangles,
@@ -582,6 +591,7 @@ pub(super) fn run(
             r.map_or(Real::NAN, |r| r.wrench_error_rel_median_chained),
             r.map_or(Real::NAN, |r| r.wrench_error_rel_unclustered_median),
             s.clustering_variability_rel_median,
+            s.force_cancellation_median,
             cmax,
             s.speedup_lod_2_5_percent_vs_parry,
             s.lod_build_s,
@@ -590,7 +600,7 @@ pub(super) fn run(
         );
     }
     println!(
-        "(unclustered: the penalty integrated over the contacts themselves, the back-end's own error; clustering: the reference's own contacts clustered cold against its warm chain; where it is large, errors of that size come from where Lloyd's method draws its boundaries, not from the contacts)"
+        "(unclustered: the penalty integrated over the contacts themselves, the back-end's own error; clustering: the reference's own contacts clustered cold against its warm chain; where it is large, errors of that size come from where Lloyd's method draws its boundaries, not from the contacts; cancellation: the reference's forces over its net force, the factor by which the contacts' own relative errors can grow in the net wrench's)"
     );
     println!(
         "worst: error at 2.5 % {:.3} (chained {:.3}; goal 0.05), p90 {:.3} (goal 0.10), tessellation {:.3} (goal 0.05), contacts {} (goal 256), speed-up {:.1}× (goal 20×), build {:.2} s (goal 2 s)",

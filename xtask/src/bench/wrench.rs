@@ -26,6 +26,28 @@ pub(super) fn integrated_wrench(
     Some([f.x, f.y, f.z, t.x, t.y, t.z])
 }
 
+/// How many times the net force of the penalty integrated over the contacts themselves is
+/// smaller than the forces that make it: `Σ |fᵢ| / |Σ fᵢ|` with `fᵢ = a g n` (as
+/// [`integrated_wrench`]), at least 1. `None` when the net force is zero or a contact has no area.
+///
+/// Contacts whose own forces are each off by a fraction `e` (in depth or area, with no common
+/// sign) move the net force by up to `e` times this: where it is large, as for a peg centred in
+/// its hole or a bolt's threads loaded from both sides, the net force is a small residual of
+/// large opposed forces and its relative error is that many times its contacts'.
+pub(super) fn force_cancellation(contacts: &[Contact], delta_m: Real) -> Option<Real> {
+    let (mut net, mut gross) = (Vec3::zeros(), 0.0);
+    for c in contacts {
+        if c.area_m2 <= 0.0 {
+            return None;
+        }
+        let g = c.area_m2 * c.gap_weight_m(delta_m);
+        net += c.n * g;
+        gross += g.abs();
+    }
+    let n = net.norm();
+    (n > 0.0 && n.is_finite()).then(|| (gross / n).max(1.0))
+}
+
 /// `|W − W₀| / |W₀|` with torques divided by `lever`; `None` when both wrenches are zero.
 pub(super) fn relative_error(w: &[Real; 6], w0: &[Real; 6], lever: Real) -> Option<Real> {
     let scale = |i: usize| if i < 3 { 1.0 } else { 1.0 / lever };
@@ -114,6 +136,28 @@ mod tests {
         );
         // It pushes the tool away from the obstacle: along −n, by area × (d + δ).
         assert!((w[2] - 4e-4 * (depth + delta)).abs() < 1e-18);
+    }
+
+    #[test]
+    fn cancellation_is_one_for_aligned_forces_and_grows_as_they_oppose() {
+        let pose = Pose::identity();
+        let (delta, area) = (1e-3, 1e-4);
+        let n = Vec3::new(0.0, 0.0, 1.0);
+        let up = on_face(&pose, Vec3::new(0.0, 0.0, 0.01), n, 2e-4, area);
+        let also_up = on_face(&pose, Vec3::new(0.01, 0.0, 0.01), n, 1e-4, area);
+        let aligned = force_cancellation(&[up, also_up], delta).unwrap();
+        assert!((aligned - 1.0).abs() < 1e-12, "{aligned}");
+        // Two opposed faces, one pushed 10 % harder than the other: the net is a twenty-first
+        // of the forces that make it.
+        let down = on_face(&pose, Vec3::new(0.0, 0.0, -0.01), -n, 0.0, area);
+        let harder = on_face(&pose, Vec3::new(0.0, 0.0, 0.01), n, 0.1 * delta, area);
+        let opposed = force_cancellation(&[down, harder], delta).unwrap();
+        assert!((opposed - 21.0).abs() < 1e-9, "{opposed}");
+        // Exactly balanced: no net force to be relative to.
+        let other = on_face(&pose, Vec3::new(0.0, 0.0, 0.01), n, 0.0, area);
+        assert_eq!(force_cancellation(&[down, other], delta), None);
+        assert_eq!(force_cancellation(&[], delta), None);
+        assert_eq!(force_cancellation(&[down.with_area(0.0)], delta), None);
     }
 
     #[test]
