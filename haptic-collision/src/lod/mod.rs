@@ -46,7 +46,7 @@
 //! answer at threshold 0, the reference of the error metric.
 //!
 //! Hierarchies can be saved and read back ([`LodBackend::with_cache`], [`Hierarchy::write_to`],
-//! [`Hierarchy::read_from`]), keyed by the mesh's content and the build's version
+//! [`Hierarchy::read_from`], [`LodBackend::with_hierarchies`]), keyed by the mesh's content and the build's version
 //! ([`hierarchy_key`]); a file that does not hold is refused ([`HierarchyFileError`]).
 
 mod build;
@@ -170,6 +170,56 @@ impl LodBackend {
                     .collect::<Vec<(Hierarchy, Pose)>>()
             },
         );
+        Ok(Self::from_hierarchies(tool, obstacles, start))
+    }
+
+    /// The back-end of hierarchies already built ([`Hierarchy::build`]) or read back
+    /// ([`Hierarchy::read_from`]): the tool's (its body frame) and each static obstacle's with
+    /// its pose in the world. For an application that keeps hierarchies its own way (in an asset
+    /// bundle, say) rather than in [`LodBackend::with_cache`]'s directory.
+    ///
+    /// ```
+    /// use haptic_collision::{LodBackend, TriMesh, DegeneratePolicy, lod::Hierarchy};
+    /// use haptic_core::{Pose, Vec3};
+    ///
+    /// let v = [[0.0, 0.0, 0.0], [0.01, 0.0, 0.0], [0.0, 0.01, 0.0], [0.0, 0.0, 0.01]];
+    /// let vertices = v.iter().map(|p| Vec3::new(p[0], p[1], p[2])).collect();
+    /// let triangles = vec![[0, 2, 1], [0, 1, 3], [0, 3, 2], [1, 2, 3]];
+    /// let (mesh, _) = TriMesh::new(vertices, triangles, DegeneratePolicy::Reject)?;
+    /// // Saved once…
+    /// let mut bytes = Vec::new();
+    /// Hierarchy::build(&mesh).write_to(&mut bytes, haptic_collision::lod::hierarchy_key(&mesh))?;
+    /// // …and read back on every start.
+    /// let tool = Hierarchy::read_from(&bytes[..], &mesh)?;
+    /// let obstacle = Hierarchy::read_from(&bytes[..], &mesh)?;
+    /// let backend = LodBackend::with_hierarchies(
+    ///     tool,
+    ///     vec![(obstacle, Pose::from_position(Vec3::new(0.05, 0.0, 0.0)))],
+    /// )?;
+    /// # let _ = backend;
+    /// # Ok::<(), Box<dyn std::error::Error>>(())
+    /// ```
+    ///
+    /// # Errors
+    /// [`LodError::NonFinitePose`] for a non-finite obstacle pose, [`LodError::TooManyTriangles`]
+    /// for a hierarchy of a mesh beyond 2³⁰ triangles.
+    pub fn with_hierarchies(
+        tool: Hierarchy,
+        obstacles: Vec<(Hierarchy, Pose)>,
+    ) -> Result<Self, LodError> {
+        let start = Instant::now();
+        for h in std::iter::once(&tool).chain(obstacles.iter().map(|(h, _)| h)) {
+            if h.triangle_count() > MAX_TRIANGLES {
+                return Err(LodError::TooManyTriangles {
+                    triangles: h.triangle_count(),
+                });
+            }
+        }
+        if obstacles.iter().any(|(_, p)| !p.is_finite()) {
+            return Err(LodError::NonFinitePose {
+                what: "obstacle pose",
+            });
+        }
         Ok(Self::from_hierarchies(tool, obstacles, start))
     }
 
