@@ -102,7 +102,8 @@ impl PlacedNode {
                 index,
                 center: frames.point(&a.center),
                 normal,
-                offset: normal.dot(&frames.point(&a.plane_point)),
+                // `(R n)·(R p + t) = n·p + (R n)·t`.
+                offset: a.normal.dot(&a.plane_point) + normal.dot(&frames.trans),
             };
         }
     }
@@ -153,13 +154,11 @@ fn plane_gap(poly: &[Vec3], n: &Vec3, p0: &Vec3) -> Real {
     lo.max(-hi).max(0.0)
 }
 
-/// Whether the two polygons' projections on the line through their centroids are more than
-/// `delta` apart (then so are the polygons).
+/// Whether the two polygons' projections on the line from `from` to `to` (their nodes' sphere
+/// centres, near the pieces' middles) are more than `delta` apart (then so are the polygons).
 #[inline]
-fn apart_along_centroids(a: &[Vec3], b: &[Vec3], delta: Real) -> bool {
-    let ca = a.iter().sum::<Vec3>() / a.len() as Real;
-    let cb = b.iter().sum::<Vec3>() / b.len() as Real;
-    let d = cb - ca;
+fn apart_along(a: &[Vec3], b: &[Vec3], from: &Vec3, to: &Vec3, delta: Real) -> bool {
+    let d = to - from;
     let len = d.norm();
     if len.is_nan() || len <= 0.0 {
         return false;
@@ -286,7 +285,7 @@ pub(crate) fn collide(
             // Piece-level cull: one piece entirely beyond δ on one side of the other's plane.
             let gap =
                 plane_gap(&buf[..len], &b.normal, &b.plane_point).max(plane_gap(pb, &na, &pa));
-            if gap > delta || apart_along_centroids(&buf[..len], pb, delta) {
+            if gap > delta || apart_along(&buf[..len], pb, &placed.center, &b.center, delta) {
                 continue;
             }
             stats.primitive_pairs_tested += 1;
