@@ -14,9 +14,9 @@
 //! farther apart than `δ`; it stops when `s_a + s_b <= ε`, with `ε = error_threshold ×`
 //! [`LodBackend::tool_bounding_radius_m`], or at two triangles; otherwise the node with the
 //! larger deviation is split. [`StoppingRule::DeviationAndCoherence`]
-//! ([`LodBackend::with_stopping_rule`]) also bounds, where a pair writes a contact, how many ways
-//! each piece's surface faces (its normal coherence, `stopping.rs`), descending the pair
-//! otherwise.
+//! ([`LodBackend::with_stopping_rule`]) caps `ε` at `δ` and also bounds, where a pair writes a
+//! contact, how many ways each piece's surface faces (its normal coherence, `stopping.rs`),
+//! descending the pair otherwise.
 //!
 //! A stopped pair writes one contact: the penalty integrated over the part of the tool piece
 //! that lies over the obstacle piece within `δ` of its plane (`slab.rs`,
@@ -366,7 +366,10 @@ impl CollisionBackend for LodBackend {
             return Err(LodError::NonFinitePose { what: "tool pose" });
         }
         let mut stats = QueryStats::default();
-        let epsilon_m = params.error_threshold * self.tool.radius_about_origin_m();
+        let radius_m = self.tool.radius_about_origin_m();
+        let epsilon_m =
+            self.stopping_rule
+                .epsilon_m(params.error_threshold, radius_m, params.delta_m);
         let tool_root = self.tool.nodes[0];
         let tool_center_w = tool_pose.transform_point(&tool_root.center);
         self.scratch.frames.clear();
@@ -386,7 +389,7 @@ impl CollisionBackend for LodBackend {
                 frames: &frames,
                 epsilon_m,
                 delta_m: params.delta_m,
-                min_coherence: self.stopping_rule.min_coherence(params.error_threshold),
+                min_coherence: self.stopping_rule.min_coherence(epsilon_m, radius_m),
             };
             collide(
                 &self.tool,

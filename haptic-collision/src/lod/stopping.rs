@@ -12,10 +12,19 @@
 //! integrates. A node's normal coherence is `c = |Σ aᵢ nᵢ| / Σ aᵢ` over its triangles (1 for a
 //! flat patch, 0 where its faces cancel): the surface's normals add up to `c` times its area,
 //! which a piece pushing along one normal counts whole, so `1 − c` is about the relative error
-//! in force of standing for the surface with one normal. A pair that writes a contact stops only where both
-//! pieces have `1 − c ≤ error_threshold`; otherwise it is descended like any other pair. Pairs
-//! without a contact stop as before, so the distance guarantee is unchanged, and at threshold 0
-//! both rules descend to triangles and give the same contacts.
+//! in force of standing for the surface with one normal. A pair that writes a contact stops
+//! only where both pieces have `1 − c ≤ error_threshold`; otherwise it is descended like any
+//! other pair. Pairs without a contact stop as before, so the distance guarantee is unchanged,
+//! and at threshold 0 both rules descend to triangles and give the same contacts.
+//!
+//! It also bounds the error a piece makes in depth by the penalty's own reach: its `ε` is
+//! `min(error_threshold × tool radius, δ)`, and its coherence condition reads the threshold that
+//! this `ε` stands for (`ε / tool radius`). The penalty weighs a point by its gap `d + δ`, within
+//! `δ` of the obstacle's surface: a piece that may lie more than `δ` from the surface it stands
+//! for can put a region anywhere in that band or outside it, whatever the tool's size. The paper
+//! measures `ε` against the tool's size alone; for a long tool with small features (a fork: `ε`
+//! is 2.4 `δ` at 2.5 %) that is where its error came from
+//! (`docs/experiments/lod-accuracy-and-speed-probes.md`, probe 21).
 
 use std::fmt;
 use std::str::FromStr;
@@ -30,10 +39,10 @@ pub enum StoppingRule {
     /// `error_threshold × tool radius`). The default.
     #[default]
     Deviation,
-    /// The paper's rule, and where the pair writes a contact, each piece's normal coherence
-    /// within the threshold: `1 − c ≤ error_threshold`. More accurate on surfaces with features
-    /// smaller than `ε` (threads, tines, cusps), slower where coarse pieces of curved surfaces
-    /// are in contact.
+    /// The paper's rule with `ε` at most `δ`, and where the pair writes a contact, each piece's
+    /// normal coherence within the threshold `ε` stands for: `1 − c ≤ ε / tool radius`. More
+    /// accurate on surfaces with features smaller than `ε` (threads, tines, cusps) and on long
+    /// tools, slower where coarse pieces of curved surfaces are in contact.
     DeviationAndCoherence,
 }
 
@@ -50,12 +59,24 @@ impl StoppingRule {
         }
     }
 
-    /// The least normal coherence a contact's pieces may have at `error_threshold` (below 0:
-    /// any).
-    pub(crate) fn min_coherence(self, error_threshold: Real) -> Real {
+    /// The walk's error budget `ε` (m) on `s_a + s_b` at `error_threshold` for a tool of
+    /// bounding radius `radius_m`, with the penalty reaching `delta_m`.
+    pub(crate) fn epsilon_m(self, error_threshold: Real, radius_m: Real, delta_m: Real) -> Real {
+        let epsilon_m = error_threshold * radius_m;
+        match self {
+            Self::Deviation => epsilon_m,
+            Self::DeviationAndCoherence => epsilon_m.min(delta_m),
+        }
+    }
+
+    /// The least normal coherence a contact's pieces may have when the walk's budget is
+    /// `epsilon_m` for a tool of bounding radius `radius_m` (below 0: any).
+    pub(crate) fn min_coherence(self, epsilon_m: Real, radius_m: Real) -> Real {
         match self {
             Self::Deviation => -1.0,
-            Self::DeviationAndCoherence => 1.0 - error_threshold,
+            Self::DeviationAndCoherence if radius_m > 0.0 => 1.0 - epsilon_m / radius_m,
+            // A tool without extent (a single point): no coarse piece to stop at.
+            Self::DeviationAndCoherence => 1.0,
         }
     }
 }
@@ -88,12 +109,29 @@ mod tests {
 
     #[test]
     fn the_paper_rule_accepts_any_coherence_and_the_other_follows_the_threshold() {
-        assert!(StoppingRule::Deviation.min_coherence(0.025) < 0.0);
+        let (r, delta) = (0.04, 1e-3);
+        let rule = StoppingRule::DeviationAndCoherence;
+        assert!(StoppingRule::Deviation.min_coherence(0.025 * r, r) < 0.0);
         assert_eq!(StoppingRule::default(), StoppingRule::Deviation);
-        let c = StoppingRule::DeviationAndCoherence.min_coherence(0.025);
+        let eps = rule.epsilon_m(0.025, r, delta);
+        assert_eq!(eps, 0.025 * r, "below δ: the paper's ε");
+        let c = rule.min_coherence(eps, r);
         assert!((c - 0.975).abs() < 1e-15);
         // At threshold 0 every coarse pair fails; triangle pairs are exempt (coherence 1).
-        assert_eq!(StoppingRule::DeviationAndCoherence.min_coherence(0.0), 1.0);
+        assert_eq!(rule.min_coherence(rule.epsilon_m(0.0, r, delta), r), 1.0);
+        assert_eq!(rule.min_coherence(0.0, 0.0), 1.0);
+    }
+
+    #[test]
+    fn the_coherence_rule_caps_epsilon_at_delta_and_reads_the_threshold_it_stands_for() {
+        let (r, delta) = (0.1, 1e-3);
+        // 5 % of 10 cm is 5 mm: five penalty bands. The paper's rule keeps it, the other caps it.
+        assert_eq!(StoppingRule::Deviation.epsilon_m(0.05, r, delta), 0.05 * r);
+        let rule = StoppingRule::DeviationAndCoherence;
+        let eps = rule.epsilon_m(0.05, r, delta);
+        assert_eq!(eps, delta);
+        // As if the threshold were δ / r = 1 %.
+        assert!((rule.min_coherence(eps, r) - 0.99).abs() < 1e-15);
     }
 
     #[test]

@@ -892,7 +892,8 @@ fn the_coherence_rule_keeps_the_force_of_surfaces_with_small_features() {
     // `Σ a (d + δ) n` along the normals out of the tool, (1, 0, −1)/√2: the surface pushes the
     // tool toward −x and up, equally.
     assert!(f0.x > 0.0 && (f0.x + f0.z).abs() < 1e-6 * f0.x, "{f0:?}");
-    // ε = 0.15 × radius ≈ 5 mm: more than the corrugation's 4 mm peak to peak.
+    // ε = 0.15 × radius ≈ 5 mm under the paper's rule: more than the corrugation's 4 mm peak
+    // to peak.
     let threshold = 0.15;
     assert!(threshold * radius > 0.5 * period);
     let rel = |f: Vec3| (f - f0).norm() / f0.norm();
@@ -905,10 +906,50 @@ fn the_coherence_rule_keeps_the_force_of_surfaces_with_small_features() {
         force(&mut coherent, threshold),
     );
     assert!(rel(fp) > 0.3, "paper's rule {fp:?} against {f0:?}");
-    // Each piece that writes a contact stands for its surface within 1 − c ≤ the threshold
-    // (here 2 %: pieces across a kink stop at c ≥ 0.85).
+    // The coherence rule caps ε at δ (here about 2.8 % of the radius), and each piece that
+    // writes a contact stands for its surface within 1 − c ≤ ε / radius.
     assert!(
         rel(fc) < threshold && rel(fc) < 0.1 * rel(fp),
         "coherence rule {fc:?} against {f0:?}"
+    );
+}
+
+/// The coherence rule caps `ε` at `δ`: above the threshold `δ / radius` every threshold gives
+/// the contacts of that one (the same walk), while the paper's rule keeps coarsening.
+#[test]
+fn the_coherence_rule_caps_epsilon_at_delta() {
+    let period = 0.008;
+    let obstacles = vec![(corrugated(period, 0.032, 0.016, true), Pose::identity())];
+    let tool = corrugated(period, 0.032, 0.016, false);
+    let pose = Pose {
+        position: Vec3::new(0.0006, 0.0, 0.001),
+        orientation: UnitQuaternion::identity(),
+    };
+    let delta = 0.001;
+    let paper = LodBackend::new(&tool, &obstacles).unwrap();
+    let radius = paper.tool_bounding_radius_m();
+    let at_delta = delta / radius;
+    assert!(0.15 > 4.0 * at_delta, "δ / radius {at_delta}");
+    let contacts = |backend: &mut LodBackend, threshold: Real| {
+        let mut out = ContactSet::new();
+        let params = QueryParams::new(delta, threshold).unwrap();
+        let stats = backend.query(&pose, &params, &mut out).unwrap();
+        (out.as_slice().to_vec(), stats.node_pairs_tested)
+    };
+    let mut coherent = paper
+        .clone()
+        .with_stopping_rule(StoppingRule::DeviationAndCoherence);
+    let capped = contacts(&mut coherent, at_delta);
+    assert!(!capped.0.is_empty());
+    for threshold in [0.05, 0.15, 1.0] {
+        assert_eq!(contacts(&mut coherent, threshold), capped, "{threshold}");
+    }
+    let mut paper = paper;
+    let (fine, coarse) = (contacts(&mut paper, at_delta), contacts(&mut paper, 0.15));
+    assert!(
+        coarse.1 < fine.1,
+        "{} node pairs against {}",
+        coarse.1,
+        fine.1
     );
 }

@@ -304,10 +304,12 @@ class LodBackend:
     contact found (at ``threshold=0``, the all-pairs reference).
 
     ``stopping_rule`` says where the walk may stop at coarse pieces: ``"deviation"`` (the
-    paper's: the pieces' surface deviations within the threshold) or ``"coherence"`` (also,
-    where a pair writes a contact, each piece's surface normals agreeing within the threshold,
-    ``1 - |sum a n| / sum a <= threshold``: more accurate on threads, tines and other features
-    smaller than the threshold, slower where coarse curved pieces touch).
+    paper's: the pieces' surface deviations within the threshold) or ``"coherence"`` (the
+    deviations also within ``delta``, and where a pair writes a contact, each piece's surface
+    normals agreeing within the threshold that budget stands for,
+    ``1 - |sum a n| / sum a <= min(threshold, delta / radius)``: more accurate on threads, tines,
+    long tools and other features smaller than the threshold, slower where coarse curved pieces
+    touch).
 
     Raises:
         InputError: an obstacle that is not a ``(Mesh, pose)`` pair (``.field ==

@@ -337,6 +337,9 @@ struct SuiteScene {
     tool_triangles: usize,
     obstacle_triangles: usize,
     delta_m: Real,
+    /// The tool's bounding radius `r` (m): LOD stops a pair at `s_a + s_b ≤ threshold × r`, so
+    /// at 2.5 % its pieces may stand `0.025 r / δ` penalty bands from their surfaces.
+    tool_bounding_radius_m: Real,
     lod_build_s: Real,
     parry_build_s: Real,
     speedup_lod_2_5_percent_vs_parry: Real,
@@ -485,6 +488,7 @@ pub(super) fn run(
             tool_triangles: e.scene.tool.triangles().len(),
             obstacle_triangles: e.scene.obstacle.triangles().len(),
             delta_m: e.scene.delta_m,
+            tool_bounding_radius_m: m.radius_m,
             lod_build_s: m.lod_build_s,
             parry_build_s: m.parry_build_s,
             speedup_lod_2_5_percent_vs_parry: m.speedup_2_5,
