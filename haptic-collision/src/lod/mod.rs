@@ -46,8 +46,9 @@
 //! answer at threshold 0, the reference of the error metric.
 //!
 //! Hierarchies can be saved and read back ([`LodBackend::with_cache`], [`Hierarchy::write_to`],
-//! [`Hierarchy::read_from`], [`LodBackend::with_hierarchies`]), keyed by the mesh's content and the build's version
-//! ([`hierarchy_key`]); a file that does not hold is refused ([`HierarchyFileError`]).
+//! [`Hierarchy::read_from`], [`LodBackend::with_hierarchies`]), keyed by the mesh's content and
+//! the build's version ([`hierarchy_key`]); a file that does not hold is refused
+//! ([`HierarchyFileError`]).
 
 mod build;
 mod cache;

@@ -13,8 +13,8 @@
 //! flat patch, 0 where its faces cancel): the surface's normals add up to `c` times its area,
 //! which a piece pushing along one normal counts whole, so `1 − c` is about the relative error
 //! in force of standing for the surface with one normal. A pair that writes a contact stops
-//! only where both pieces have `1 − c ≤ error_threshold`; otherwise it is descended like any
-//! other pair. Pairs without a contact stop as before, so the distance guarantee is unchanged,
+//! only where both pieces have `1 − c ≤ error_threshold` (below the cap that follows);
+//! otherwise it is descended like any other pair. Pairs without a contact stop as before, so the distance guarantee is unchanged,
 //! and at threshold 0 both rules descend to triangles and give the same contacts.
 //!
 //! It also bounds the error a piece makes in depth by the penalty's own reach: its `ε` is
