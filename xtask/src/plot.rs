@@ -174,6 +174,17 @@ fn range(scale: Scale, vals: impl Iterator<Item = f64>) -> (f64, f64) {
     }
 }
 
+/// Where a point's label starts, in pixels from the point: to its right, or to its left in the
+/// plot's right fifth, where a label to the right would run off the image (13 px text, about
+/// 0.55 em a character).
+fn label_dx(chart: &Chart<'_>, x0: f64, x1: f64, x: f64, text: &str) -> i32 {
+    if fraction(chart.x_scale, x0, x1, x) > 0.8 {
+        -6 - (7.2 * text.chars().count() as f64).ceil() as i32
+    } else {
+        6
+    }
+}
+
 /// Where on the plot `v` (within `lo..hi`) falls, from 0 to 1, along an axis of `scale`.
 fn fraction(scale: Scale, lo: f64, hi: f64, v: f64) -> f64 {
     match scale {
@@ -281,7 +292,11 @@ pub fn line_chart(path: &Path, chart: &Chart<'_>, series: &[Series]) -> anyhow::
                     ctx.draw_series(labelled.map(|(p, text)| {
                         EmptyElement::at(*p)
                             + Circle::new((0, 0), 4, color.filled())
-                            + Text::new(text.clone(), (6, -16), ("sans-serif", 13))
+                            + Text::new(
+                                text.clone(),
+                                (label_dx(chart, x0, x1, p.0, text), -16),
+                                ("sans-serif", 13),
+                            )
                     }))
                     .map_err(|e| anyhow::anyhow!("{e}"))?;
                 }
@@ -400,6 +415,48 @@ mod tests {
                 Some((attr(tag, "x")?, attr(tag, "y")?, text.to_owned()))
             })
             .collect()
+    }
+
+    /// A point's label stays inside the image, the rightmost one included.
+    #[test]
+    fn point_labels_stay_inside_the_image() {
+        let dir = std::env::temp_dir().join(format!("haptic-plot-labels-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        let path = dir.join("labels.svg");
+        let pts = vec![(1e-6, 0.09), (1e-4, 0.085), (2e-3, 0.08)];
+        let labels = ["0.4 %", "1 %", "2.5, 5 %"].map(String::from).to_vec();
+        line_chart(
+            &path,
+            &Chart {
+                title: "labels",
+                x_label: "error",
+                y_label: "time (ms)",
+                x_scale: Scale::Log,
+                y_scale: Scale::Linear,
+            },
+            &[Series::new("lod", pts).with_point_labels(labels.clone())],
+        )
+        .unwrap();
+        let svg = std::fs::read_to_string(&path).unwrap();
+        for label in &labels {
+            // plotters writes a text element's content on its own line.
+            let at = svg
+                .find(&format!(">\n{label}\n<"))
+                .expect("the label is drawn");
+            let tag = &svg[svg[..at].rfind("<text").unwrap()..at];
+            let x: f64 = tag
+                .split(" x=\"")
+                .nth(1)
+                .unwrap()
+                .split('"')
+                .next()
+                .unwrap()
+                .parse()
+                .unwrap();
+            let width = 7.2 * label.chars().count() as f64;
+            assert!(x >= 0.0 && x + width <= 900.0, "{label} at x = {x}");
+        }
+        let _ = std::fs::remove_dir_all(&dir);
     }
 
     /// Every chart kind holds tick labels on both axes, and none with float noise.
