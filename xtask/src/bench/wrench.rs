@@ -16,14 +16,17 @@ pub(super) fn integrated_wrench(
 ) -> Option<[Real; 6]> {
     let (mut f, mut t) = (Vec3::zeros(), Vec3::zeros());
     for c in contacts {
-        if c.area_m2 <= 0.0 {
-            return None;
-        }
-        let fi = -c.n * (c.area_m2 * c.gap_weight_m(delta_m));
+        let fi = penalty_force(c, delta_m)?;
         f += fi;
         t += (pose.orientation * c.r_a).cross(&fi);
     }
     Some([f.x, f.y, f.z, t.x, t.y, t.z])
+}
+
+/// One contact's share of the integrated penalty, `−a g n` (unit stiffness per area); `None`
+/// when it has no area.
+fn penalty_force(c: &Contact, delta_m: Real) -> Option<Vec3> {
+    (c.area_m2 > 0.0).then(|| -c.n * (c.area_m2 * c.gap_weight_m(delta_m)))
 }
 
 /// How many times the net force of the penalty integrated over the contacts themselves is
@@ -37,12 +40,9 @@ pub(super) fn integrated_wrench(
 pub(super) fn force_cancellation(contacts: &[Contact], delta_m: Real) -> Option<Real> {
     let (mut net, mut gross) = (Vec3::zeros(), 0.0);
     for c in contacts {
-        if c.area_m2 <= 0.0 {
-            return None;
-        }
-        let g = c.area_m2 * c.gap_weight_m(delta_m);
-        net += c.n * g;
-        gross += g.abs();
+        let fi = penalty_force(c, delta_m)?;
+        net += fi;
+        gross += fi.norm();
     }
     let n = net.norm();
     (n > 0.0 && n.is_finite()).then(|| (gross / n).max(1.0))
