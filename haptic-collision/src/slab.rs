@@ -67,6 +67,12 @@ impl HeightOffset {
             half_width_m: (3.0 * var).sqrt(),
         }
     }
+
+    /// How much nearer than the pieces the surfaces they stand for may come (m): the mean's
+    /// size plus the half-width. [`pair_region`] integrates no farther than `δ` plus this.
+    pub fn reach_m(&self) -> Real {
+        self.mean_m.abs() + self.half_width_m
+    }
 }
 
 /// The contact that stands for a region: what the clustering reads of the integral.

@@ -16,7 +16,8 @@
 //! larger deviation is split. [`StoppingRule::DeviationAndCoherence`]
 //! ([`LodBackend::with_stopping_rule`]) caps `ε` at `δ` and also bounds, where a pair writes a
 //! contact, how many ways each piece's surface faces (its normal coherence, `stopping.rs`),
-//! descending the pair otherwise.
+//! descending the pair otherwise; it drops a stopped pair only where the surfaces its pieces
+//! stand for, not the pieces, are beyond `δ`.
 //!
 //! A stopped pair writes one contact: the penalty integrated over the part of the tool piece
 //! that lies over the obstacle piece within `δ` of its plane (`slab.rs`,
@@ -391,6 +392,7 @@ impl CollisionBackend for LodBackend {
                 epsilon_m,
                 delta_m: params.delta_m,
                 min_coherence: self.stopping_rule.min_coherence(epsilon_m, radius_m),
+                cull_at_surfaces: self.stopping_rule.culls_at_surfaces(),
             };
             collide(
                 &self.tool,

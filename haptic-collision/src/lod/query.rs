@@ -182,6 +182,10 @@ pub(crate) struct Walk<'a> {
     /// The least normal coherence both coarse pieces of a pair that writes a contact must have
     /// to stop there ([`super::StoppingRule::min_coherence`]); below 0, any.
     pub min_coherence: Real,
+    /// Whether a stopped pair is dropped only when its pieces, shifted and spread by the heights
+    /// of the surfaces they stand for, lie beyond δ, rather than the pieces themselves
+    /// ([`super::StoppingRule::culls_at_surfaces`]).
+    pub cull_at_surfaces: bool,
 }
 
 /// Scratch reused by every query, so that a query allocates nothing once warm.
@@ -282,17 +286,27 @@ pub(crate) fn collide(
             let (len, na) = place_piece(tool, a, frames, &mut buf);
             let pa = frames.point(&a.plane_point);
             let pb = obs.piece_of(b);
-            // Piece-level cull: one piece entirely beyond δ on one side of the other's plane.
             let gap =
                 plane_gap(&buf[..len], &b.normal, &b.plane_point).max(plane_gap(pb, &na, &pa));
-            if gap > delta || apart_along(&buf[..len], pb, &placed.center, &b.center, delta) {
+            // A leaf's moments are those of a flat triangle (no offset, full cover), so the same
+            // path gives the exact region of two triangles.
+            let offset = |ia, ib| {
+                let (ma, mb) = (tool.moments_of(ia), obs.moments_of(ib));
+                (ma, mb, HeightOffset::of_pieces(ma, mb, na.dot(&b.normal)))
+            };
+            // Piece-level cull: one piece entirely beyond reach on one side of the other's plane,
+            // or along the line between them. The reach is δ, or under the coherence rule as far
+            // as `pair_region` integrates the surfaces the pieces stand for (`stopping.rs`).
+            let reach = if walk.cull_at_surfaces {
+                delta + offset(ia, ib).2.reach_m()
+            } else {
+                delta
+            };
+            if gap > reach || apart_along(&buf[..len], pb, &placed.center, &b.center, reach) {
                 continue;
             }
             stats.primitive_pairs_tested += 1;
-            // A leaf's moments are those of a flat triangle (no offset, full cover), so the same
-            // path gives the exact region of two triangles.
-            let (ma, mb) = (tool.moments_of(ia), obs.moments_of(ib));
-            let offset = HeightOffset::of_pieces(ma, mb, na.dot(&b.normal));
+            let (ma, mb, offset) = offset(ia, ib);
             let regions = pair_region(&buf[..len], pb, &b.normal, delta, offset);
             // The coherence rule (`stopping.rs`): a contact between pieces whose surfaces face
             // too many ways is not written; the pair is descended like any other.

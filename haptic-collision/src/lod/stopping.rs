@@ -25,6 +25,14 @@
 //! measures `ε` against the tool's size alone; for a long tool with small features (a fork: `ε`
 //! is 2.4 `δ` at 2.5 %) that is where its error came from
 //! (`docs/experiments/lod-accuracy-and-speed-probes.md`, probe 21).
+//!
+//! And it drops a stopped pair only where the surfaces its pieces stand for are out of reach,
+//! not the pieces themselves: the piece-level cull reaches as far as the region's integral
+//! does (δ plus the height offset of the surfaces about their pieces, `slab.rs`). With `ε` up to
+//! `δ`, a piece can lie more than `δ` from the other while its surface comes within half of it:
+//! the fork's tines in the mug lost contacts of 2 N at 0.5 mm that way
+//! (`docs/experiments/lod-accuracy-and-speed-probes.md`, probe 22). The paper's rule keeps the
+//! cull at the pieces, as the paper does.
 
 use std::fmt;
 use std::str::FromStr;
@@ -42,7 +50,8 @@ pub enum StoppingRule {
     /// The paper's rule with `ε` at most `δ`, and where the pair writes a contact, each piece's
     /// normal coherence within the threshold `ε` stands for: `1 − c ≤ ε / tool radius`. More
     /// accurate on surfaces with features smaller than `ε` (threads, tines, cusps) and on long
-    /// tools, slower where coarse pieces of curved surfaces are in contact.
+    /// tools, slower where coarse pieces of curved surfaces are in contact. A stopped pair is
+    /// dropped only where the surfaces its pieces stand for are beyond `δ`.
     DeviationAndCoherence,
 }
 
@@ -67,6 +76,12 @@ impl StoppingRule {
             Self::Deviation => epsilon_m,
             Self::DeviationAndCoherence => epsilon_m.min(delta_m),
         }
+    }
+
+    /// Whether a stopped pair is dropped only when the surfaces its pieces stand for (the
+    /// pieces shifted and spread by their height offset) lie beyond `δ`, rather than the pieces.
+    pub(crate) fn culls_at_surfaces(self) -> bool {
+        matches!(self, Self::DeviationAndCoherence)
     }
 
     /// The least normal coherence a contact's pieces may have when the walk's budget is

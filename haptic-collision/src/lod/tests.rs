@@ -953,3 +953,49 @@ fn the_coherence_rule_caps_epsilon_at_delta() {
         fine.1
     );
 }
+
+/// A trough (`z = c x²`, 1.1 mm deep, facing down) whose lowest line is 0.6 mm over a flat
+/// sheet, δ = 1 mm: its coarse pieces lie where the trough's surface is on average, up to half
+/// their deviation above its lowest line, so a piece whose deviation is within `ε = δ` can lie
+/// beyond δ while its surface comes to 0.6 mm. The coherence rule drops a pair only where the surfaces its
+/// pieces stand for are out of reach, and keeps the force; the paper's rule, whose cull is at
+/// the pieces, loses it.
+#[test]
+fn the_coherence_rule_keeps_contacts_whose_pieces_lie_beyond_delta() {
+    let (half_x, sag) = (0.008, 0.0011);
+    let c = sag / (half_x * half_x);
+    let tool = sheet(&even(16, half_x), &even(4, 0.004), |x| c * x * x, false);
+    let obstacles = vec![(flat_grid(8, 0.012, true), Pose::identity())];
+    let (delta, gap) = (0.001, 0.0006);
+    let pose = Pose {
+        position: Vec3::new(0.0, 0.0, gap),
+        orientation: UnitQuaternion::identity(),
+    };
+    let mut reference = LodBackend::new(&tool, &obstacles)
+        .unwrap()
+        .with_max_contacts(None);
+    let radius = reference.tool_bounding_radius_m();
+    let force = |backend: &mut LodBackend, threshold: Real| {
+        let mut out = ContactSet::new();
+        let params = QueryParams::new(delta, threshold).unwrap();
+        backend.query(&pose, &params, &mut out).unwrap();
+        let w = integrated_penalty(&out, delta, &pose.position, radius);
+        Vec3::new(w[0], w[1], w[2])
+    };
+    let f0 = force(&mut reference, 0.0);
+    assert!(f0.z < 0.0, "{f0:?}");
+    // Above δ / radius both rules may stop at pieces of deviation up to δ, more than the sag.
+    let threshold = 1.0;
+    let mut paper = reference.clone().with_max_contacts(Some(256));
+    let mut coherent = paper
+        .clone()
+        .with_stopping_rule(StoppingRule::DeviationAndCoherence);
+    let (fp, fc) = (
+        force(&mut paper, threshold),
+        force(&mut coherent, threshold),
+    );
+    let rel = |f: Vec3| (f - f0).norm() / f0.norm();
+    // Culling at the pieces, the coherence rule loses the whole force here too (error 1.0).
+    assert!(rel(fp) > 0.5, "paper's rule {fp:?} against {f0:?}");
+    assert!(rel(fc) < 0.1, "coherence rule {fc:?} against {f0:?}");
+}
