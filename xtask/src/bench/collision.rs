@@ -273,7 +273,7 @@ pub fn run(args: &super::CollisionArgs, out: &crate::OutArgs) -> anyhow::Result<
 }
 
 /// How the wrench and its error are computed (in every report).
-pub(super) const WRENCH: &str = "contacts -> haptic_cluster::Clusterer (K = 5, w = a (d + delta), a the tool area a contact stands for) -> haptic_dynamics::penalty::PenaltyModel (k_c times each representative's stiffness share, b_c = 0, tool at rest), torque about the tool origin; error |W - W0| / |W0| with W = (F, T / r), W0 = LOD at threshold 0 with every contact found (all-pairs). The reference warm-starts from its previous pose; the other runs cluster each pose from the reference's representatives of that pose (wrench_error_rel_*), and along their own chain of warm starts (wrench_error_rel_*_chained). wrench_error_rel_unclustered_*: the same error for the penalty integrated over the contacts themselves, unclustered (F = -sum a (d + delta) n, T = sum rho x F_i), the back-end's own error without the clustering's; null where contacts carry no area";
+pub(super) const WRENCH: &str = "contacts -> haptic_cluster::Clusterer (K = 5, w = a (d + delta), a the tool area a contact stands for) -> haptic_dynamics::penalty::PenaltyModel (k_c times each representative's stiffness share, b_c = 0, tool at rest), torque about the tool origin; error |W - W0| / |W0| with W = (F, T / r), W0 = LOD at threshold 0 with every contact found (all-pairs); a wrench below 1e-9 times the run's median reference wrench counts as none (a pose where both are is skipped, one where only the reference is has error 1). The reference warm-starts from its previous pose; the other runs cluster each pose from the reference's representatives of that pose (wrench_error_rel_*), and along their own chain of warm starts (wrench_error_rel_*_chained). wrench_error_rel_unclustered_*: the same error for the penalty integrated over the contacts themselves, unclustered (F = -sum a (d + delta) n, T = sum rho x F_i), the back-end's own error without the clustering's; null where contacts carry no area";
 
 /// What one run measured.
 #[derive(Clone)]
@@ -463,7 +463,7 @@ where
                     // clusterings of the same contacts can differ.
                     seeded.clusterer.reset();
                     let cold = seeded.wrench(&out, pose, scene.delta_m)?;
-                    cold_errors.extend(relative_error(&cold, &w, radius));
+                    cold_errors.extend(relative_error(&cold, &w, radius, 0.0));
                     wrenches.push(w);
                 }
             }

@@ -48,28 +48,45 @@ pub(super) fn force_cancellation(contacts: &[Contact], delta_m: Real) -> Option<
     (n > 0.0 && n.is_finite()).then(|| (gross / n).max(1.0))
 }
 
-/// `|W − W₀| / |W₀|` with torques divided by `lever`; `None` when both wrenches are zero.
-pub(super) fn relative_error(w: &[Real; 6], w0: &[Real; 6], lever: Real) -> Option<Real> {
-    let scale = |i: usize| if i < 3 { 1.0 } else { 1.0 / lever };
-    let diff = (0..6)
-        .map(|i| ((w[i] - w0[i]) * scale(i)).powi(2))
-        .sum::<Real>()
-        .sqrt();
-    let norm = (0..6)
-        .map(|i| (w0[i] * scale(i)).powi(2))
-        .sum::<Real>()
-        .sqrt();
-    if norm > 0.0 {
+/// Wrenches smaller than this fraction of a run's median reference wrench count as zero.
+///
+/// A back-end may write a contact that reports a distance without adding to the force:
+/// `LodBackend`'s closest approach stands for 10⁻¹⁸ m² and pushes 10⁻¹⁴ N where the regions push
+/// newtons. Where the reference has no contact, that is no error a device could render; counted
+/// against a zero reference it would be an error of 1, as large as missing every contact.
+pub(super) const NEGLIGIBLE_WRENCH_REL: Real = 1e-9;
+
+/// `|W − W₀| / |W₀|` with torques divided by `lever`; `None` when both wrenches are at most
+/// `floor` (zero, or negligible: [`NEGLIGIBLE_WRENCH_REL`]), 1 when only the reference is.
+pub(super) fn relative_error(
+    w: &[Real; 6],
+    w0: &[Real; 6],
+    lever: Real,
+    floor: Real,
+) -> Option<Real> {
+    let diff = scaled_norm(&std::array::from_fn(|i| w[i] - w0[i]), lever);
+    let norm = scaled_norm(w0, lever);
+    if norm > floor {
         Some(diff / norm)
-    } else if diff > 0.0 {
+    } else if diff > floor {
         Some(1.0)
     } else {
         None
     }
 }
 
+/// `|(F, T / lever)|`.
+fn scaled_norm(w: &[Real; 6], lever: Real) -> Real {
+    let scale = |i: usize| if i < 3 { 1.0 } else { 1.0 / lever };
+    (0..6)
+        .map(|i| (w[i] * scale(i)).powi(2))
+        .sum::<Real>()
+        .sqrt()
+}
+
 /// The error of each pose's wrench in `ws` against the same pose's in `w0s` (torques divided by
-/// `lever`), skipping the poses where either has none or both are zero.
+/// `lever`), skipping the poses where either has none or both are negligible: at most
+/// [`NEGLIGIBLE_WRENCH_REL`] times the median of the reference's non-zero wrenches.
 ///
 /// # Errors
 /// When the two runs do not have the same number of poses, or when poses were given and none
@@ -81,20 +98,33 @@ pub(super) fn pose_errors<'a>(
     lever: Real,
 ) -> anyhow::Result<Vec<Real>> {
     let (mut ws, mut w0s) = (ws.into_iter(), w0s.into_iter());
-    let (mut errors, mut poses) = (Vec::new(), 0usize);
+    let mut pairs = Vec::new();
     loop {
         match (ws.next(), w0s.next()) {
-            (Some(w), Some(w0)) => {
-                poses += 1;
-                errors.extend(w.zip(w0).and_then(|(w, w0)| relative_error(w, w0, lever)));
-            }
+            (Some(w), Some(w0)) => pairs.push(w.zip(w0)),
             (None, None) => break,
             _ => anyhow::bail!("a run and its reference have different numbers of poses"),
         }
     }
-    if errors.is_empty() && poses > 0 {
+    let mut sizes: Vec<Real> = pairs
+        .iter()
+        .flatten()
+        .map(|(_, w0)| scaled_norm(w0, lever))
+        .filter(|n| *n > 0.0)
+        .collect();
+    sizes.sort_by(Real::total_cmp);
+    let floor = sizes
+        .get(sizes.len() / 2)
+        .map_or(0.0, |m| NEGLIGIBLE_WRENCH_REL * m);
+    let errors: Vec<Real> = pairs
+        .iter()
+        .flatten()
+        .filter_map(|(w, w0)| relative_error(w, w0, lever, floor))
+        .collect();
+    if errors.is_empty() && !pairs.is_empty() {
         anyhow::bail!(
-            "none of the {poses} poses has a wrench to compare with its reference (no contact at any pose, or contacts without areas)"
+            "none of the {} poses has a wrench to compare with its reference (no contact at any pose, or contacts without areas)",
+            pairs.len()
         );
     }
     Ok(errors)
@@ -131,7 +161,7 @@ mod tests {
         let w = integrated_wrench(&whole, &pose, delta).unwrap();
         let h = integrated_wrench(&halves, &pose, delta).unwrap();
         assert!(
-            relative_error(&h, &w, 0.05).unwrap() < 1e-12,
+            relative_error(&h, &w, 0.05, 0.0).unwrap() < 1e-12,
             "{h:?} against {w:?}"
         );
         // It pushes the tool away from the obstacle: along −n, by area × (d + δ).
@@ -168,7 +198,10 @@ mod tests {
         let w = integrated_wrench(&[c], &pose, 1.0).unwrap();
         // F = (−1, 0, 0) at ρ = (0, 0.5, 0): T = ρ × F = (0, 0, 0.5).
         let expected = [-1.0, 0.0, 0.0, 0.0, 0.0, 0.5];
-        assert!(relative_error(&w, &expected, 1.0).unwrap() < 1e-12, "{w:?}");
+        assert!(
+            relative_error(&w, &expected, 1.0, 0.0).unwrap() < 1e-12,
+            "{w:?}"
+        );
     }
 
     #[test]
@@ -185,9 +218,29 @@ mod tests {
     fn relative_error_scales_the_torque_by_the_lever() {
         let w0 = [1.0, 0.0, 0.0, 0.0, 0.0, 0.0];
         let w = [1.0, 0.0, 0.0, 0.0, 0.0, 0.2];
-        assert!((relative_error(&w, &w0, 2.0).unwrap() - 0.1).abs() < 1e-15);
-        assert_eq!(relative_error(&[0.0; 6], &[0.0; 6], 1.0), None);
-        assert_eq!(relative_error(&w, &[0.0; 6], 1.0), Some(1.0));
+        assert!((relative_error(&w, &w0, 2.0, 0.0).unwrap() - 0.1).abs() < 1e-15);
+        assert_eq!(relative_error(&[0.0; 6], &[0.0; 6], 1.0, 0.0), None);
+        assert_eq!(relative_error(&w, &[0.0; 6], 1.0, 0.0), Some(1.0));
+        // Below the floor, a wrench is none; above it, against none, an error of 1.
+        assert_eq!(relative_error(&w, &[0.0; 6], 1.0, 2.0), None);
+        assert_eq!(relative_error(&w, &[0.0; 6], 1.0, 0.5), Some(1.0));
+    }
+
+    #[test]
+    fn pose_errors_count_negligible_wrenches_as_none() {
+        let big = [1.0, 0.0, 0.0, 0.0, 0.0, 0.0];
+        let tiny = [1e-14, 0.0, 0.0, 0.0, 0.0, 0.0];
+        let (zero, half) = ([0.0; 6], [0.5, 0.0, 0.0, 0.0, 0.0, 0.0]);
+        // A closest approach's 10⁻¹⁴ against no contact: skipped; a missed contact, or a
+        // phantom of a visible size: 1.
+        let ws = [Some(&big), Some(&tiny), Some(&zero), Some(&half)];
+        let w0s = [Some(&big), Some(&zero), Some(&big), Some(&zero)];
+        assert_eq!(pose_errors(ws, w0s, 1.0).unwrap(), vec![0.0, 1.0, 1.0]);
+        // Negligible is relative to the run's median reference wrench, not absolute.
+        let small = [1e-13, 0.0, 0.0, 0.0, 0.0, 0.0];
+        let ws = [Some(&small), Some(&tiny)];
+        let w0s = [Some(&small), Some(&zero)];
+        assert_eq!(pose_errors(ws, w0s, 1.0).unwrap(), vec![0.0, 1.0]);
     }
 
     #[test]
