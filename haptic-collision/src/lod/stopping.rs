@@ -28,9 +28,9 @@
 //!
 //! And it drops a stopped pair only where the surfaces its pieces stand for are out of reach,
 //! not the pieces themselves: the piece-level cull reaches as far as the region's integral
-//! does (δ plus the height offset of the surfaces about their pieces, `slab.rs`). With `ε` up to
-//! `δ`, a piece can lie more than `δ` from the other while its surface comes within half of it:
-//! the fork's tines in the mug lost contacts of 2 N at 0.5 mm that way
+//! does (`δ` plus the height offset of the surfaces about their pieces, `slab.rs`). With `ε` up to
+//! `δ`, a piece can lie more than `δ` from the other while its surface comes well within it:
+//! the fork in the mug lost contacts of 2 N at 0.5 mm that way
 //! (`docs/experiments/lod-accuracy-and-speed-probes.md`, probe 22). The paper's rule keeps the
 //! cull at the pieces, as the paper does.
 

@@ -307,9 +307,10 @@ class LodBackend:
     paper's: the pieces' surface deviations within the threshold) or ``"coherence"`` (the
     deviations also within ``delta``, and where a pair writes a contact, each piece's surface
     normals agreeing within the threshold that budget stands for,
-    ``1 - |sum a n| / sum a <= min(threshold, delta / radius)``: more accurate on threads, tines,
-    long tools and other features smaller than the threshold, slower where coarse curved pieces
-    touch).
+    ``1 - |sum a n| / sum a <= min(threshold, delta / radius)``, and a pair dropped only where
+    the surfaces its pieces stand for, not the pieces, are beyond ``delta``: more accurate on
+    threads, tines, long tools and other features smaller than the threshold, slower where
+    coarse curved pieces touch).
 
     Raises:
         InputError: an obstacle that is not a ``(Mesh, pose)`` pair (``.field ==
