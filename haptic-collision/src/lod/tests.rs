@@ -957,9 +957,9 @@ fn the_coherence_rule_caps_epsilon_at_delta() {
 /// A trough (`z = c x²`, 1.1 mm deep, facing down) whose lowest line is 0.6 mm over a flat
 /// sheet, δ = 1 mm: its coarse pieces lie where the trough's surface is on average, up to half
 /// their deviation above its lowest line, so a piece whose deviation is within `ε = δ` can lie
-/// beyond δ while its surface comes to 0.6 mm. The coherence rule drops a pair only where the surfaces its
-/// pieces stand for are out of reach, and keeps the force; the paper's rule, whose cull is at
-/// the pieces, loses it.
+/// beyond δ while its surface comes to 0.6 mm. The coherence rule drops a pair only where the
+/// surfaces its pieces stand for are out of reach, and keeps the force; the paper's rule, whose
+/// cull is at the pieces, loses it.
 #[test]
 fn the_coherence_rule_keeps_contacts_whose_pieces_lie_beyond_delta() {
     let (half_x, sag) = (0.008, 0.0011);
@@ -995,7 +995,7 @@ fn the_coherence_rule_keeps_contacts_whose_pieces_lie_beyond_delta() {
         force(&mut coherent, threshold),
     );
     let rel = |f: Vec3| (f - f0).norm() / f0.norm();
-    // Culling at the pieces, the coherence rule loses the whole force here too (error 1.0).
+    // (Culling at the pieces, as the paper's rule does, the coherence rule lost it too: 1.0.)
     assert!(rel(fp) > 0.5, "paper's rule {fp:?} against {f0:?}");
     assert!(rel(fc) < 0.1, "coherence rule {fc:?} against {f0:?}");
 }
