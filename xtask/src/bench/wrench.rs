@@ -50,10 +50,12 @@ pub(super) fn force_cancellation(contacts: &[Contact], delta_m: Real) -> Option<
 
 /// Wrenches smaller than this fraction of a run's median reference wrench count as zero.
 ///
-/// A back-end may write a contact that reports a distance without adding to the force:
-/// `LodBackend`'s closest approach stands for 10⁻¹⁸ m² and pushes 10⁻¹⁴ N where the regions push
-/// newtons. Where the reference has no contact, that is no error a device could render; counted
-/// against a zero reference it would be an error of 1, as large as missing every contact.
+/// A back-end may write contacts whose force is at roundoff level: `LodBackend`'s coarse regions
+/// grazing the outer edge of the penalty band (depth `−δ` to within a nanometre) push
+/// 10⁻¹⁵–10⁻¹⁴ N where the regions push newtons, and its closest approach, a contact of
+/// 10⁻¹⁸ m² that reports a distance, less. Where the reference has no contact, that is no error
+/// a device could render; counted against a zero reference it would be an error of 1, as large as
+/// missing every contact.
 pub(super) const NEGLIGIBLE_WRENCH_REL: Real = 1e-9;
 
 /// `|W − W₀| / |W₀|` with torques divided by `lever`; `None` when both wrenches are at most
@@ -231,7 +233,7 @@ mod tests {
         let big = [1.0, 0.0, 0.0, 0.0, 0.0, 0.0];
         let tiny = [1e-14, 0.0, 0.0, 0.0, 0.0, 0.0];
         let (zero, half) = ([0.0; 6], [0.5, 0.0, 0.0, 0.0, 0.0, 0.0]);
-        // A closest approach's 10⁻¹⁴ against no contact: skipped; a missed contact, or a
+        // A grazing region's 10⁻¹⁴ against no contact: skipped; a missed contact, or a
         // phantom of a visible size: 1.
         let ws = [Some(&big), Some(&tiny), Some(&zero), Some(&half)];
         let w0s = [Some(&big), Some(&zero), Some(&big), Some(&zero)];
