@@ -842,6 +842,35 @@ proptest! {
     }
 }
 
+/// The net force of the penalty integrated over `backend`'s contacts at `pose`
+/// ([`integrated_penalty`]).
+fn net_force(backend: &mut LodBackend, pose: &Pose, delta: Real, threshold: Real) -> Vec3 {
+    let radius = backend.tool_bounding_radius_m();
+    let mut out = ContactSet::new();
+    let params = QueryParams::new(delta, threshold).unwrap();
+    backend.query(pose, &params, &mut out).unwrap();
+    let w = integrated_penalty(&out, delta, &pose.position, radius);
+    Vec3::new(w[0], w[1], w[2])
+}
+
+/// [`net_force`] at `threshold` of `reference`'s meshes, compacting, under the paper's rule and
+/// under the coherence rule.
+fn under_both_rules(
+    reference: &LodBackend,
+    pose: &Pose,
+    delta: Real,
+    threshold: Real,
+) -> (Vec3, Vec3) {
+    let mut paper = reference.clone().with_max_contacts(Some(256));
+    let mut coherent = paper
+        .clone()
+        .with_stopping_rule(StoppingRule::DeviationAndCoherence);
+    (
+        net_force(&mut paper, pose, delta, threshold),
+        net_force(&mut coherent, pose, delta, threshold),
+    )
+}
+
 /// A corrugated sheet over `[−half_x, half_x] × [−half_y, half_y]`: `z = tri(x)`, a triangle
 /// wave of period `period` and flanks at 45° (peak to peak `period / 2`), its kinks on grid
 /// lines so that every flank is exact; facing `+z` (`up`) or `−z`.
@@ -876,19 +905,7 @@ fn the_coherence_rule_keeps_the_force_of_surfaces_with_small_features() {
         .unwrap()
         .with_max_contacts(None);
     let radius = reference.tool_bounding_radius_m();
-    let force = |backend: &mut LodBackend, threshold: Real| {
-        let mut out = ContactSet::new();
-        backend
-            .query(
-                &pose,
-                &QueryParams::new(delta, threshold).unwrap(),
-                &mut out,
-            )
-            .unwrap();
-        let w = integrated_penalty(&out, delta, &pose.position, radius);
-        Vec3::new(w[0], w[1], w[2])
-    };
-    let f0 = force(&mut reference, 0.0);
+    let f0 = net_force(&mut reference, &pose, delta, 0.0);
     // `Σ a (d + δ) n` along the normals out of the tool, (1, 0, −1)/√2: the surface pushes the
     // tool toward −x and up, equally.
     assert!(f0.x > 0.0 && (f0.x + f0.z).abs() < 1e-6 * f0.x, "{f0:?}");
@@ -897,14 +914,7 @@ fn the_coherence_rule_keeps_the_force_of_surfaces_with_small_features() {
     let threshold = 0.15;
     assert!(threshold * radius > 0.5 * period);
     let rel = |f: Vec3| (f - f0).norm() / f0.norm();
-    let mut paper = reference.clone().with_max_contacts(Some(256));
-    let mut coherent = paper
-        .clone()
-        .with_stopping_rule(StoppingRule::DeviationAndCoherence);
-    let (fp, fc) = (
-        force(&mut paper, threshold),
-        force(&mut coherent, threshold),
-    );
+    let (fp, fc) = under_both_rules(&reference, &pose, delta, threshold);
     assert!(rel(fp) > 0.3, "paper's rule {fp:?} against {f0:?}");
     // The coherence rule caps ε at δ (here about 2.8 % of the radius), and each piece that
     // writes a contact stands for its surface within 1 − c ≤ ε / radius.
@@ -974,26 +984,10 @@ fn the_coherence_rule_keeps_contacts_whose_pieces_lie_beyond_delta() {
     let mut reference = LodBackend::new(&tool, &obstacles)
         .unwrap()
         .with_max_contacts(None);
-    let radius = reference.tool_bounding_radius_m();
-    let force = |backend: &mut LodBackend, threshold: Real| {
-        let mut out = ContactSet::new();
-        let params = QueryParams::new(delta, threshold).unwrap();
-        backend.query(&pose, &params, &mut out).unwrap();
-        let w = integrated_penalty(&out, delta, &pose.position, radius);
-        Vec3::new(w[0], w[1], w[2])
-    };
-    let f0 = force(&mut reference, 0.0);
+    let f0 = net_force(&mut reference, &pose, delta, 0.0);
     assert!(f0.z < 0.0, "{f0:?}");
     // Above δ / radius both rules may stop at pieces of deviation up to δ, more than the sag.
-    let threshold = 1.0;
-    let mut paper = reference.clone().with_max_contacts(Some(256));
-    let mut coherent = paper
-        .clone()
-        .with_stopping_rule(StoppingRule::DeviationAndCoherence);
-    let (fp, fc) = (
-        force(&mut paper, threshold),
-        force(&mut coherent, threshold),
-    );
+    let (fp, fc) = under_both_rules(&reference, &pose, delta, 1.0);
     let rel = |f: Vec3| (f - f0).norm() / f0.norm();
     // (Culling at the pieces, as the paper's rule does, the coherence rule lost it too: 1.0.)
     assert!(rel(fp) > 0.5, "paper's rule {fp:?} against {f0:?}");
