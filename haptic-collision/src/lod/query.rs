@@ -297,16 +297,13 @@ pub(crate) fn collide(
             // Piece-level cull: one piece entirely beyond reach on one side of the other's plane,
             // or along the line between them. The reach is δ, or under the coherence rule as far
             // as `pair_region` integrates the surfaces the pieces stand for (`stopping.rs`).
-            let reach = if walk.cull_at_surfaces {
-                delta + offset(ia, ib).2.reach_m()
-            } else {
-                delta
-            };
+            let early = walk.cull_at_surfaces.then(|| offset(ia, ib));
+            let reach = early.map_or(delta, |(_, _, o)| delta + o.reach_m());
             if gap > reach || apart_along(&buf[..len], pb, &placed.center, &b.center, reach) {
                 continue;
             }
             stats.primitive_pairs_tested += 1;
-            let (ma, mb, offset) = offset(ia, ib);
+            let (ma, mb, offset) = early.unwrap_or_else(|| offset(ia, ib));
             let regions = pair_region(&buf[..len], pb, &b.normal, delta, offset);
             // The coherence rule (`stopping.rs`): a contact between pieces whose surfaces face
             // too many ways is not written; the pair is descended like any other.
