@@ -74,6 +74,8 @@ pub struct Hierarchy {
     pub(crate) moments: Vec<SurfaceMoments>,
     /// Per node: how its surface's normal turns across its piece (`moments.rs`).
     pub(crate) normal_fields: Vec<NormalField>,
+    /// Per node: a ball that holds its piece (derived from the pieces, so not saved).
+    pub(crate) piece_balls: Vec<PieceBall>,
     radius_about_origin_m: Real,
     triangle_count: usize,
     height: usize,
@@ -175,11 +177,13 @@ impl Hierarchy {
             .map(|v| v.norm())
             .fold(0.0, Real::max);
         let (moments, normal_fields) = surface_moments(&nodes, &piece);
+        let piece_balls = piece_balls(&nodes, &piece);
         Self {
             nodes,
             piece,
             moments,
             normal_fields,
+            piece_balls,
             radius_about_origin_m,
             triangle_count: n,
             height,
@@ -208,11 +212,13 @@ impl Hierarchy {
         build_s: Real,
     ) -> Self {
         let (moments, normal_fields) = surface_moments(&nodes, &piece);
+        let piece_balls = piece_balls(&nodes, &piece);
         Self {
             nodes,
             piece,
             moments,
             normal_fields,
+            piece_balls,
             radius_about_origin_m,
             triangle_count,
             height,
@@ -241,12 +247,19 @@ impl Hierarchy {
             + self.piece.capacity() * std::mem::size_of::<Vec3>()
             + self.moments.capacity() * std::mem::size_of::<SurfaceMoments>()
             + self.normal_fields.capacity() * std::mem::size_of::<NormalField>()
+            + self.piece_balls.capacity() * std::mem::size_of::<PieceBall>()
     }
 
     /// Area and height moments of the surface below node `i`.
     #[inline]
     pub(crate) fn moments_of(&self, i: u32) -> &SurfaceMoments {
         &self.moments[i as usize]
+    }
+
+    /// A ball that holds node `i`'s piece.
+    #[inline]
+    pub(crate) fn piece_ball_of(&self, i: u32) -> &PieceBall {
+        &self.piece_balls[i as usize]
     }
 
     /// How node `i`'s surface normal turns across its piece.
@@ -259,6 +272,59 @@ impl Hierarchy {
     pub(crate) fn piece_of(&self, node: &Node) -> &[Vec3] {
         &self.piece[node.piece_start as usize..(node.piece_start + node.piece_len) as usize]
     }
+}
+
+/// A ball that holds a node's piece (mesh frame), tighter about it than the node's bounding
+/// sphere, which holds the triangles: the walk's test of whether two pieces lie beside each other
+/// (`query.rs`).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub(crate) struct PieceBall {
+    /// Centre: the middle of the piece's bounding box.
+    pub center: Vec3,
+    /// Radius (m): the distance to the piece's farthest vertex; infinite for a node without a
+    /// piece.
+    pub radius_m: Real,
+}
+
+impl PieceBall {
+    /// The ball about the middle of `verts`' bounding box through the farthest of them; about
+    /// `center` with an infinite radius when there are none (a node without a piece).
+    pub(crate) fn of(verts: &[Vec3], center: Vec3) -> Self {
+        if verts.is_empty() {
+            return Self {
+                center,
+                radius_m: Real::INFINITY,
+            };
+        }
+        let (lo, hi) = verts.iter().fold(
+            (
+                Vec3::repeat(Real::INFINITY),
+                Vec3::repeat(Real::NEG_INFINITY),
+            ),
+            |(lo, hi), v| (lo.inf(v), hi.sup(v)),
+        );
+        let center = (lo + hi) * 0.5;
+        let radius2 = verts
+            .iter()
+            .map(|v| (v - center).norm_squared())
+            .fold(0.0, Real::max);
+        Self {
+            center,
+            radius_m: radius2.sqrt(),
+        }
+    }
+}
+
+/// Each node's [`PieceBall`].
+fn piece_balls(nodes: &[Node], piece: &[Vec3]) -> Vec<PieceBall> {
+    nodes
+        .iter()
+        .map(|node| {
+            let s = node.piece_start as usize;
+            let verts = piece.get(s..s + node.piece_len as usize).unwrap_or(&[]);
+            PieceBall::of(verts, node.center)
+        })
+        .collect()
 }
 
 /// Bounding sphere (centre of the corners' box, radius to the farthest corner).

@@ -21,7 +21,10 @@
 //!
 //! A stopped pair writes one contact: the penalty integrated over the part of the tool piece
 //! that lies over the obstacle piece within `δ` of its plane (`slab.rs`,
-//! `docs/formulation.md` §7). At two triangles the integral is exact; a coarse pair integrates
+//! `docs/formulation.md` §7). Most stopped pairs lie beside each other, seen along the obstacle
+//! piece's normal, so that no region comes of them: a ball about each piece (derived from the
+//! pieces when a hierarchy is built or read) finds them before the tool piece is placed, and they
+//! are dropped unless their balls are nearer than the nearest distance found so far. At two triangles the integral is exact; a coarse pair integrates
 //! over its pieces with the heights shifted and spread by where the surfaces they simplify lie
 //! about them (each node's area-weighted mean and variance of height, `moments.rs`), and counts
 //! the share of its area that the surface covers of the piece. After the walk, the pairs whose

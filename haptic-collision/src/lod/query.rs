@@ -2,7 +2,7 @@
 
 use haptic_core::{Contact, ContactSet, Mat3, NO_FEATURE, Pose, QueryStats, Real, Vec3};
 
-use super::build::{Hierarchy, Node};
+use super::build::{Hierarchy, Node, PieceBall};
 use super::{LodError, MAX_PIECE_VERTICES};
 use crate::compact::AREA_FLOOR_M2;
 use crate::geometry::{PairContact, convex_polygon_pair};
@@ -124,6 +124,28 @@ fn culled(a: &Node, placed: &PlacedNode, b: &Node, delta: Real) -> bool {
     }
     // The tool's slab, in the obstacle frame.
     (placed.normal.dot(&b.center) - placed.offset).abs() - a.half_thickness - b.radius > delta
+}
+
+/// Whether a tool piece inside the ball of `radius_m` about `center` (obstacle frame) and the
+/// obstacle piece inside the ball `b` lie beside each other as seen along the obstacle piece's
+/// normal `nb` (the balls' shadows on its plane are apart), so that no part of the tool's lies
+/// over the obstacle's and [`pair_region`] finds nothing, and are no nearer than `found_m`, so
+/// that their closest approach is not needed either (`closest_approaches` keeps only one nearer
+/// than the nearest found).
+#[inline]
+pub(crate) fn beside(
+    center: &Vec3,
+    radius_m: Real,
+    b: &PieceBall,
+    nb: &Vec3,
+    found_m: Real,
+) -> bool {
+    let d = center - b.center;
+    let along = nb.dot(&d);
+    let apart2 = d.norm_squared();
+    let r = radius_m + b.radius_m;
+    let near = r + found_m;
+    apart2 - along * along > r * r && (found_m <= 0.0 || apart2 >= near * near)
 }
 
 /// The tool's piece of `a` in the obstacle frame, into `buf`; returns its length and normal.
@@ -283,6 +305,16 @@ pub(crate) fn collide(
         let stop = (leaf_a && leaf_b)
             || (walk.epsilon_m > 0.0 && a.deviation + b.deviation <= walk.epsilon_m);
         if stop {
+            let (da, db) = (tool.piece_ball_of(ia), obs.piece_ball_of(ib));
+            if beside(
+                &frames.point(&da.center),
+                da.radius_m,
+                db,
+                &b.normal,
+                nearest.found_m,
+            ) {
+                continue;
+            }
             let (len, na) = place_piece(tool, a, frames, &mut buf);
             let pa = frames.point(&a.plane_point);
             let pb = obs.piece_of(b);

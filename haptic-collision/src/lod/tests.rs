@@ -106,6 +106,11 @@ fn hierarchy_bounds_and_deviation_are_true_upper_bounds() {
             let s = node.deviation;
             let piece = h.piece_of(&node);
             assert!(piece.len() >= 3 && piece.len() <= super::MAX_PIECE_VERTICES);
+            // The piece's ball holds it.
+            let ball = h.piece_ball_of(i as u32);
+            for v in piece {
+                assert!((v - ball.center).norm() <= ball.radius_m * (1.0 + 1e-12));
+            }
             // Surface → piece.
             for p in &pts {
                 let d = point_polygon_distance(p, piece, &node.normal);
@@ -992,4 +997,78 @@ fn the_coherence_rule_keeps_contacts_whose_pieces_lie_beyond_delta() {
     // (Culling at the pieces, as the paper's rule does, the coherence rule lost it too: 1.0.)
     assert!(rel(fp) > 0.5, "paper's rule {fp:?} against {f0:?}");
     assert!(rel(fc) < 0.1, "coherence rule {fc:?} against {f0:?}");
+}
+
+/// A random convex polygon of 3–8 vertices, CCW about its normal (returned), about `center`.
+fn random_piece(rng: &mut Lcg, center: Vec3, size: Real) -> (Vec<Vec3>, Vec3) {
+    let n = random_direction(rng);
+    let (u, w) = crate::geometry::plane_basis(&n);
+    let k = 3 + (rng.next() * 6.0) as usize;
+    let mut angles: Vec<Real> = (0..k).map(|_| rng.next() * std::f64::consts::TAU).collect();
+    angles.sort_by(Real::total_cmp);
+    let r = size * (0.2 + rng.next());
+    let verts = angles
+        .iter()
+        .map(|t| center + (u * t.cos() + w * t.sin()) * r)
+        .collect();
+    (verts, n)
+}
+
+fn random_direction(rng: &mut Lcg) -> Vec3 {
+    loop {
+        let v = Vec3::new(rng.next(), rng.next(), rng.next()) * 2.0 - Vec3::repeat(1.0);
+        let n = v.norm();
+        if n > 0.1 && n <= 1.0 {
+            return v / n;
+        }
+    }
+}
+
+#[test]
+fn pieces_found_beside_each_other_have_no_region_and_no_nearer_approach() {
+    use super::build::PieceBall;
+    use super::query::beside;
+    use crate::geometry::convex_polygon_pair;
+    use crate::slab::{HeightOffset, pair_region};
+    let mut rng = Lcg(15);
+    let (mut found_beside, mut with_region) = (0, 0);
+    for case in 0..4000 {
+        let delta = 0.05 + rng.next();
+        let (a, na) = random_piece(&mut rng, Vec3::zeros(), 1.0);
+        let offset = (Vec3::new(rng.next(), rng.next(), rng.next()) - Vec3::repeat(0.5)) * 4.0;
+        let (b, nb) = random_piece(&mut rng, offset, 1.0);
+        // Found so far: nothing, a crossing, or some distance.
+        let found_m = [Real::INFINITY, 0.0, rng.next() * 3.0][case % 3];
+        let (ball_a, ball_b) = (PieceBall::of(&a, Vec3::zeros()), PieceBall::of(&b, offset));
+        let offsets = [
+            HeightOffset::NONE,
+            HeightOffset {
+                mean_m: 0.3,
+                half_width_m: 0.5,
+            },
+        ];
+        if !beside(&ball_a.center, ball_a.radius_m, &ball_b, &nb, found_m) {
+            with_region +=
+                usize::from(pair_region(&a, &b, &nb, delta, offsets[0]).region.is_some());
+            continue;
+        }
+        found_beside += 1;
+        for o in offsets {
+            let r = pair_region(&a, &b, &nb, delta, o);
+            assert!(
+                r.region.is_none() && r.nearest_m.is_infinite(),
+                "case {case}: {r:?}"
+            );
+        }
+        let d = convex_polygon_pair(&a, &na, &b, &nb).distance;
+        assert!(
+            d >= found_m,
+            "case {case}: the pieces are {d} apart, nearer than {found_m}"
+        );
+    }
+    // Neither test vacuous.
+    assert!(
+        found_beside > 500 && with_region > 100,
+        "{found_beside} beside, {with_region} with a region"
+    );
 }
