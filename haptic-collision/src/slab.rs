@@ -163,18 +163,25 @@ pub(crate) fn pair_region(
     poly.0[..n].copy_from_slice(&local[..n]);
     let s = offset.half_width_m.max(0.0);
     let mut tmp: Poly = ([[0.0; 3]; MAX_CLIPPED], 0);
-    // The slab first, then the prism's walls.
-    clip(&poly, &mut tmp, |p| delta_m + s - p[2]);
-    clip(&tmp, &mut poly, |p| delta_m + p[2]);
-    // Ping-pong between the two buffers by reference: swapping the buffers themselves moved
-    // 368 bytes three times per wall, an eighth of this function's time on the jaws.
+    // The slab first, then the prism's walls. Ping-pong between the two buffers by reference
+    // (swapping the buffers themselves moved 368 bytes three times per wall, an eighth of this
+    // function's time on the jaws), and only where a plane cuts.
     let (mut cur, mut next) = (&mut poly, &mut tmp);
+    let slab_top = |p: &[Real; 3]| delta_m + s - p[2];
+    let slab_bottom = |p: &[Real; 3]| delta_m + p[2];
+    if clip(cur, next, slab_top) {
+        std::mem::swap(&mut cur, &mut next);
+    }
+    if clip(cur, next, slab_bottom) {
+        std::mem::swap(&mut cur, &mut next);
+    }
     for i in 0..m {
         if cur.1 == 0 {
             break;
         }
-        clip(cur, next, |p| inside(i, p));
-        std::mem::swap(&mut cur, &mut next);
+        if clip(cur, next, |p| inside(i, p)) {
+            std::mem::swap(&mut cur, &mut next);
+        }
     }
     let poly: &Poly = cur;
     let mut out = PairRegion::NONE;
@@ -321,14 +328,21 @@ impl Sums {
     }
 }
 
-/// Sutherland–Hodgman: the part of `src` where `f ≥ 0`, into `dst`.
+/// Sutherland–Hodgman: the part of `src` where `f ≥ 0`, into `dst`; returns whether it wrote
+/// `dst`, which it does not where all of `src` is in that part (the part is `src` itself).
 #[inline]
-fn clip(src: &Poly, dst: &mut Poly, f: impl Fn(&[Real; 3]) -> Real) {
-    dst.1 = 0;
+fn clip(src: &Poly, dst: &mut Poly, f: impl Fn(&[Real; 3]) -> Real) -> bool {
     let n = src.1;
-    if n == 0 {
-        return;
+    let mut values = [0.0; MAX_CLIPPED];
+    let mut all_in = true;
+    for (v, p) in values.iter_mut().zip(&src.0[..n]) {
+        *v = f(p);
+        all_in &= *v >= 0.0;
     }
+    if all_in {
+        return false;
+    }
+    dst.1 = 0;
     let mut push = |p: [Real; 3]| {
         if dst.1 < MAX_CLIPPED {
             dst.0[dst.1] = p;
@@ -336,9 +350,8 @@ fn clip(src: &Poly, dst: &mut Poly, f: impl Fn(&[Real; 3]) -> Real) {
         }
     };
     let mut prev = src.0[n - 1];
-    let mut f_prev = f(&prev);
-    for &cur in &src.0[..n] {
-        let f_cur = f(&cur);
+    let mut f_prev = values[n - 1];
+    for (&cur, &f_cur) in src.0[..n].iter().zip(&values[..n]) {
         if (f_cur >= 0.0) != (f_prev >= 0.0) {
             let t = f_prev / (f_prev - f_cur);
             push(lerp(&prev, &cur, t));
@@ -349,6 +362,7 @@ fn clip(src: &Poly, dst: &mut Poly, f: impl Fn(&[Real; 3]) -> Real) {
         prev = cur;
         f_prev = f_cur;
     }
+    true
 }
 
 #[inline]
