@@ -274,9 +274,9 @@ impl Hierarchy {
     }
 }
 
-/// A ball that holds a node's piece (mesh frame), tighter about it than the node's bounding
-/// sphere, which holds the triangles: the walk's test of whether two pieces lie beside each other
-/// (`query.rs`).
+/// A ball that holds a node's piece (mesh frame; the node's bounding sphere holds its triangles,
+/// which a coarse piece may overhang): the walk's test of whether two stopped pieces lie beside
+/// each other (`query.rs`).
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub(crate) struct PieceBall {
     /// Centre: the middle of the piece's bounding box.

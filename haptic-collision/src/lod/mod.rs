@@ -24,12 +24,13 @@
 //! `docs/formulation.md` §7). Most stopped pairs lie beside each other, seen along the obstacle
 //! piece's normal, so that no region comes of them: a ball about each piece (derived from the
 //! pieces when a hierarchy is built or read) finds them before the tool piece is placed, and they
-//! are dropped unless their balls are nearer than the nearest distance found so far. At two triangles the integral is exact; a coarse pair integrates
-//! over its pieces with the heights shifted and spread by where the surfaces they simplify lie
-//! about them (each node's area-weighted mean and variance of height, `moments.rs`), and counts
-//! the share of its area that the surface covers of the piece. After the walk, the pairs whose
-//! closest approach could be closer than every contact written are searched exactly, and the
-//! closest approach is written as a contact of negligible area, so the reported smallest separation is
+//! are dropped unless their balls are nearer than the nearest distance found so far. At two
+//! triangles the integral is exact; a coarse pair integrates over its pieces with the heights
+//! shifted and spread by where the surfaces they simplify lie about them (each node's
+//! area-weighted mean and variance of height, `moments.rs`), and counts the share of its area
+//! that the surface covers of the piece. After the walk, the pairs whose closest approach could
+//! be closer than every contact written are searched exactly, and the closest approach is
+//! written as a contact of negligible area, so the reported smallest separation is
 //! the exact one of the stopped pieces: when the exact surfaces are apart by `D` with
 //! `ε < D < δ − ε`, it is within `ε` of `D`. At `error_threshold = 0` the walk descends to
 //! triangle pairs and the contacts are exact (the same as
