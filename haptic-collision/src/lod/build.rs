@@ -287,8 +287,9 @@ pub(crate) struct PieceBall {
 }
 
 impl PieceBall {
-    /// The ball about the middle of `verts`' bounding box through the farthest of them; about
-    /// `center` with an infinite radius when there are none (a node without a piece).
+    /// The ball about the middle of `verts`' bounding box through the farthest of them (with the
+    /// bounding spheres' slack); about `center` with an infinite radius when there are none (a
+    /// node without a piece).
     pub(crate) fn of(verts: &[Vec3], center: Vec3) -> Self {
         if verts.is_empty() {
             return Self {
@@ -296,22 +297,8 @@ impl PieceBall {
                 radius_m: Real::INFINITY,
             };
         }
-        let (lo, hi) = verts.iter().fold(
-            (
-                Vec3::repeat(Real::INFINITY),
-                Vec3::repeat(Real::NEG_INFINITY),
-            ),
-            |(lo, hi), v| (lo.inf(v), hi.sup(v)),
-        );
-        let center = (lo + hi) * 0.5;
-        let radius2 = verts
-            .iter()
-            .map(|v| (v - center).norm_squared())
-            .fold(0.0, Real::max);
-        Self {
-            center,
-            radius_m: radius2.sqrt(),
-        }
+        let (center, radius_m) = ball_about_box(verts.iter());
+        Self { center, radius_m }
     }
 }
 
@@ -329,23 +316,20 @@ fn piece_balls(nodes: &[Node], piece: &[Vec3]) -> Vec<PieceBall> {
 
 /// Bounding sphere (centre of the corners' box, radius to the farthest corner).
 fn fill_bounds(node: &mut Node, node_tris: &[u32], tris: &[[Vec3; 3]]) {
+    (node.center, node.radius) = ball_about_box(node_tris.iter().flat_map(|&t| &tris[t as usize]));
+}
+
+/// The ball about the middle of `points`' bounding box through the farthest of them, with a hair
+/// of slack so that rounding in the distance tests never culls a touching pair.
+fn ball_about_box<'a>(points: impl Iterator<Item = &'a Vec3> + Clone) -> (Vec3, Real) {
     let (mut bmin, mut bmax) = (Vec3::repeat(Real::INFINITY), Vec3::repeat(-Real::INFINITY));
-    for &t in node_tris {
-        for v in &tris[t as usize] {
-            bmin = bmin.inf(v);
-            bmax = bmax.sup(v);
-        }
+    for v in points.clone() {
+        bmin = bmin.inf(v);
+        bmax = bmax.sup(v);
     }
     let c = (bmin + bmax) * 0.5;
-    let mut r2: Real = 0.0;
-    for &t in node_tris {
-        for v in &tris[t as usize] {
-            r2 = r2.max((v - c).norm_squared());
-        }
-    }
-    node.center = c;
-    // A hair of slack so that rounding in the distance tests never culls a touching pair.
-    node.radius = r2.sqrt() * (1.0 + 1e-12);
+    let r2 = points.fold(0.0, |r2: Real, v| r2.max((v - c).norm_squared()));
+    (c, r2.sqrt() * (1.0 + 1e-12))
 }
 
 /// 2-D convex hull (Andrew's monotone chain), counter-clockwise, without collinear points.
