@@ -195,6 +195,12 @@ impl ContactSet {
         self.contacts.push(contact);
     }
 
+    /// Keeps the contacts for which `keep` returns true, in their order; `keep` sees every
+    /// contact once, in order (so it may count them). Keeps the allocation.
+    pub fn retain(&mut self, keep: impl FnMut(&Contact) -> bool) {
+        self.contacts.retain(keep);
+    }
+
     /// The contacts.
     #[inline]
     pub fn as_slice(&self) -> &[Contact] {
@@ -255,6 +261,22 @@ mod tests {
 
     fn ok() -> Contact {
         Contact::new(Vec3::zeros(), Vec3::zeros(), Vec3::zeros(), Vec3::z(), 1e-4).unwrap()
+    }
+
+    #[test]
+    fn retain_keeps_the_chosen_contacts_in_order_and_the_allocation() {
+        let mut set = ContactSet::with_capacity(8);
+        for k in 0..5 {
+            set.push(ok().with_area(Real::from(k)));
+        }
+        let mut i = 0;
+        set.retain(|_| {
+            i += 1;
+            i % 2 == 1
+        });
+        let areas: Vec<Real> = set.iter().map(|c| c.area_m2).collect();
+        assert_eq!(areas, [0.0, 2.0, 4.0]);
+        assert_eq!(set.capacity(), 8);
     }
 
     #[test]
