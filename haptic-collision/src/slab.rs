@@ -84,6 +84,11 @@ pub(crate) struct RegionContact {
     pub centroid: Vec3,
     /// The contact's depth (m): `∫g² / ∫g − δ`, the `g`-weighted mean of `g − δ`.
     pub depth_m: Real,
+    /// Whether the pieces themselves lie apart, nearer than that mean only through the
+    /// surfaces they stand for, so that the depth is held at their distance (and the weight
+    /// `∫g` the surfaces give is kept in the area): what the pieces say of the force is then
+    /// least sure.
+    pub pieces_apart: bool,
 }
 
 impl RegionContact {
@@ -213,11 +218,13 @@ pub(crate) fn pair_region(
     // not the closest approach): the smallest separation reported stays within the pieces'
     // deviations of the surfaces' (the guarantee of `lod`), the weight `∫g` is kept.
     let piece_lo = lo - mean;
-    if piece_lo > 0.0 && depth_m > -piece_lo {
+    let pieces_apart = piece_lo > 0.0 && depth_m > -piece_lo;
+    if pieces_apart {
         depth_m = (-piece_lo).max(-delta_m);
         area_m2 = sums.g / gap_weight_m(depth_m, delta_m);
     }
     out.region = Some(RegionContact {
+        pieces_apart,
         area_m2,
         centroid: origin + u * c.x + w * c.y + nb * (c.z - mean),
         depth_m,

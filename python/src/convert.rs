@@ -230,7 +230,8 @@ pub fn array1<'py, T: numpy::Element>(py: Python<'py>, v: Vec<T>) -> Bound<'py, 
     v.into_pyarray(py)
 }
 
-/// A stopping rule by its name (`"deviation"` or `"coherence"`), for the argument `field`.
+/// A stopping rule by its name (`"deviation"`, `"coherence"` or `"coherence-budget"`), for
+/// the argument `field`.
 pub fn stopping_rule(name: &str, field: &str) -> PyResult<haptic_collision::StoppingRule> {
     name.parse().map_err(|e| input(field, e))
 }

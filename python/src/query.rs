@@ -252,7 +252,8 @@ fn query<B: CollisionBackend + Send>(
 /// frame and `[(Mesh, pose), …]` the obstacles with their world poses. With `cache_dir`, each
 /// hierarchy is read back from that folder when it was saved there for the same mesh, and built
 /// and saved there otherwise (a file that cannot be used is rebuilt, never used).
-/// `stopping_rule="coherence"` is `haptic_collision::StoppingRule::DeviationAndCoherence`.
+/// `stopping_rule="coherence"` is `haptic_collision::StoppingRule::DeviationAndCoherence`,
+/// `"coherence-budget"` is `haptic_collision::StoppingRule::CoherenceBudget`.
 /// Building the hierarchies and querying release the GIL; one back-end may be used from several
 /// Python threads (their queries take turns).
 #[pyclass(module = "haptic", name = "LodBackend", frozen)]

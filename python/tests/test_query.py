@@ -395,6 +395,13 @@ def test_stopping_rule(jaws_meshes, jaws_lod):
     _, paper = jaws_lod.query(pose, delta=DELTA, threshold=0.025)
     _, finer = coherent.query(pose, delta=DELTA, threshold=0.025)
     assert finer.node_pairs_tested >= paper.node_pairs_tested
+    # The budgeted rule walks as the paper's rule does, then refines: the same contacts at 0,
+    # at least the paper's node pairs above it.
+    budget = haptic.LodBackend(upper, [(lower, IDENTITY)], stopping_rule="coherence-budget")
+    same, _ = budget.query(pose, delta=DELTA, threshold=0.0)
+    assert np.array_equal(exact.p_a, same.p_a) and np.array_equal(exact.area, same.area)
+    _, refined = budget.query(pose, delta=DELTA, threshold=0.025)
+    assert refined.node_pairs_tested >= paper.node_pairs_tested
     with pytest.raises(haptic.InputError) as e:
         haptic.LodBackend(upper, [(lower, IDENTITY)], stopping_rule="normals")
     assert e.value.field == "stopping_rule"

@@ -17,7 +17,9 @@
 //! ([`LodBackend::with_stopping_rule`]) caps `ε` at `δ` and also bounds, where a pair writes a
 //! contact, how many ways each piece's surface faces (its normal coherence, `stopping.rs`),
 //! descending the pair otherwise; it drops a stopped pair only where the surfaces its pieces
-//! stand for, not the pieces, are beyond `δ`.
+//! stand for, not the pieces, are beyond `δ`. [`StoppingRule::CoherenceBudget`] holds that
+//! bound for the regions' sum against the net force instead of region by region, refining
+//! after the walk the regions that hold most of it (`refine.rs`).
 //!
 //! A stopped pair writes one contact: the penalty integrated over the part of the tool piece
 //! that lies over the obstacle piece within `δ` of its plane (`slab.rs`,
@@ -60,6 +62,7 @@ mod cache;
 mod deviation;
 mod moments;
 pub(crate) mod query;
+mod refine;
 mod split;
 mod stopping;
 mod topology;
@@ -332,6 +335,7 @@ impl LodBackend {
                 .sum::<usize>()
             + self.scratch.stack.capacity() * std::mem::size_of::<(u32, u32)>()
             + self.scratch.apart.capacity() * std::mem::size_of::<(Real, u32, u32, u32)>()
+            + self.scratch.written.capacity() * std::mem::size_of::<refine::Written>()
     }
 
     /// Capacity of the query's scratch buffers, in elements (they are reused between queries;
@@ -341,6 +345,7 @@ impl LodBackend {
             + self.scratch.apart.capacity()
             + self.scratch.nearest.capacity()
             + self.scratch.frames.capacity()
+            + self.scratch.written.capacity()
     }
 
     /// The tool's hierarchy.
@@ -397,6 +402,7 @@ impl CollisionBackend for LodBackend {
                 delta_m: params.delta_m,
                 min_coherence: self.stopping_rule.min_coherence(epsilon_m, radius_m),
                 cull_at_surfaces: self.stopping_rule.culls_at_surfaces(),
+                refine: self.stopping_rule.refines_regions(),
             };
             collide(
                 &self.tool,

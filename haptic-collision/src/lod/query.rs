@@ -1,8 +1,11 @@
 //! The query: both hierarchies walked together (tool placed in the obstacle's mesh frame).
 
-use haptic_core::{Contact, ContactSet, Mat3, NO_FEATURE, Pose, QueryStats, Real, Vec3};
+use haptic_core::{
+    Contact, ContactSet, Mat3, NO_FEATURE, Pose, QueryStats, Real, Vec3, gap_weight_m,
+};
 
 use super::build::{Hierarchy, Node, PieceBall};
+use super::refine::{Written, refine_regions};
 use super::{LodError, MAX_PIECE_VERTICES};
 use crate::compact::AREA_FLOOR_M2;
 use crate::geometry::{PairContact, convex_polygon_pair};
@@ -202,8 +205,13 @@ pub(crate) struct Walk<'a> {
     /// Distance tolerance δ (m).
     pub delta_m: Real,
     /// The least normal coherence both coarse pieces of a pair that writes a contact must have
-    /// to stop there ([`super::StoppingRule::min_coherence`]); below 0, any.
+    /// to stop there ([`super::StoppingRule::min_coherence`]) in a walk pair by pair
+    /// ([`Pass::PairByPair`]); below 0, any.
     pub min_coherence: Real,
+    /// Whether the regions' bound on their force's direction error is held within the
+    /// threshold of the net force by refining the largest (`refine.rs`,
+    /// [`super::StoppingRule::refines_regions`]).
+    pub refine: bool,
     /// Whether a stopped pair is dropped only when its pieces, shifted and spread by the heights
     /// of the surfaces they stand for, lie beyond δ, rather than the pieces themselves
     /// ([`super::StoppingRule::culls_at_surfaces`]).
@@ -222,6 +230,9 @@ pub(crate) struct Scratch {
     pub nearest: Vec<Nearest>,
     /// Per obstacle: the frames of this query.
     pub frames: Vec<Frames>,
+    /// The regions the walk wrote against the obstacle at hand, when it refines them
+    /// (`refine.rs`).
+    pub written: Vec<Written>,
 }
 
 /// The smallest distances of one obstacle's contacts in a query.
@@ -266,7 +277,8 @@ impl Nearest {
 
 /// Walks tool × obstacle `obstacle` from the root pair and writes one contact per stopped pair
 /// into `out` ([`pair_region`]), noting the distances in `scratch.nearest[obstacle]` and the
-/// pairs whose closest approach may lie outside their region in `scratch.apart`.
+/// pairs whose closest approach may lie outside their region in `scratch.apart`; then, where
+/// the walk refines its regions, refines them (`refine.rs`).
 ///
 /// # Errors
 /// [`LodError::Core`] for a non-finite contact.
@@ -279,16 +291,64 @@ pub(crate) fn collide(
     out: &mut ContactSet,
     stats: &mut QueryStats,
 ) -> Result<(), LodError> {
+    let start = out.len();
+    scratch.stack.clear();
+    scratch.stack.push((0, 0));
+    scratch.written.clear();
+    let pass = if walk.refine {
+        Pass::Record
+    } else {
+        Pass::PairByPair
+    };
+    walk_from_stack(tool, obs, obstacle, walk, pass, scratch, out, stats)?;
+    if walk.refine {
+        refine_regions(tool, obs, obstacle, walk, start, scratch, out, stats)?;
+    }
+    Ok(())
+}
+
+/// How a walk treats the regions it writes.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub(crate) enum Pass {
+    /// Pair by pair: a region whose pieces are less coherent than `walk.min_coherence` is not
+    /// written; its pair is descended (the paper's rule asks for no coherence). The walk of the
+    /// coherence rule, and the walk below the regions the budgeted rule refines.
+    PairByPair,
+    /// Every region is written whatever its pieces' coherence, and noted in `scratch.written`
+    /// for the refinement to choose from (`refine.rs`): the budgeted rule's first walk.
+    Record,
+}
+
+/// Walks the pairs on `scratch.stack` and everything below them that is not culled, as
+/// [`collide`] says, in `pass`.
+///
+/// # Errors
+/// [`LodError::Core`] for a non-finite contact.
+#[allow(clippy::too_many_arguments)]
+pub(crate) fn walk_from_stack(
+    tool: &Hierarchy,
+    obs: &Hierarchy,
+    obstacle: u32,
+    walk: &Walk<'_>,
+    pass: Pass,
+    scratch: &mut Scratch,
+    out: &mut ContactSet,
+    stats: &mut QueryStats,
+) -> Result<(), LodError> {
     let Scratch {
         stack,
         apart,
         nearest,
+        written,
         ..
     } = scratch;
-    stack.clear();
-    stack.push((0, 0));
     let frames = walk.frames;
     let delta = walk.delta_m;
+    let min_coherence = if pass == Pass::Record {
+        -1.0
+    } else {
+        walk.min_coherence
+    };
     let mut buf = [Vec3::zeros(); MAX_PIECE_VERTICES];
     let nearest = &mut nearest[obstacle as usize];
     let mut placed = PlacedNode::NONE;
@@ -341,7 +401,7 @@ pub(crate) fn collide(
             // too many ways is not written; the pair is descended like any other.
             if regions.region.is_some()
                 && !(leaf_a && leaf_b)
-                && ma.coherence.min(mb.coherence) < walk.min_coherence
+                && ma.coherence.min(mb.coherence) < min_coherence
             {
                 descend(ia, a, ib, b, stack);
                 continue;
@@ -360,7 +420,19 @@ pub(crate) fn collide(
                 } else {
                     (NO_FEATURE, NO_FEATURE)
                 };
-                frames.emit(&pc, fa, fb, r.area_m2 * (ma.cover * mb.cover), out)?;
+                let area_m2 = r.area_m2 * (ma.cover * mb.cover);
+                if pass == Pass::Record {
+                    let coherence = ma.coherence.min(mb.coherence);
+                    written.push(Written::of(
+                        out.len(),
+                        (ia, ib),
+                        area_m2 * gap_weight_m(pc.depth, delta),
+                        coherence,
+                        &pc.n,
+                        r.pieces_apart && coherence < walk.min_coherence,
+                    ));
+                }
+                frames.emit(&pc, fa, fb, area_m2, out)?;
                 nearest.written(pc.distance);
             }
             if regions.nearest_m.is_finite() {
@@ -382,7 +454,7 @@ pub(crate) fn collide(
 /// Pushes the children pairs of `(ia, ib)`, not both leaves: the node with the larger deviation
 /// is split (ties: the larger one).
 #[inline]
-fn descend(ia: u32, a: &Node, ib: u32, b: &Node, stack: &mut Vec<(u32, u32)>) {
+pub(crate) fn descend(ia: u32, a: &Node, ib: u32, b: &Node, stack: &mut Vec<(u32, u32)>) {
     let split_a = if a.is_leaf() {
         false
     } else if b.is_leaf() {

@@ -33,6 +33,16 @@
 //! the fork in the mug lost contacts of 2 N at 0.5 mm that way
 //! (`docs/experiments/lod-accuracy-and-speed-probes.md`, probe 22). The paper's rule keeps the
 //! cull at the pieces, as the paper does.
+//!
+//! [`StoppingRule::CoherenceBudget`] asks the same of the regions' sum instead of each region:
+//! it walks as the paper's rule does (with the cap and the cull above), then bounds the error
+//! of the regions written, `Σ wᵢ (1 − cᵢ)` (`wᵢ` a region's penalty weight `∫g`), against the
+//! threshold's share of the net force, `τ |Σ wᵢ nᵢ|`; where it is larger, the regions with the
+//! largest bounds are refined under the coherence condition until the rest is within it
+//! (`refine.rs`). The refinement goes where the force is, and where opposed contacts cancel the
+//! budget shrinks with their resultant. On the jaws it refines a few dozen of about a thousand
+//! regions, where the coherence rule descends every incoherent one
+//! (`docs/experiments/lod-accuracy-and-speed-probes.md`, probe 24).
 
 use std::fmt;
 use std::str::FromStr;
@@ -53,18 +63,34 @@ pub enum StoppingRule {
     /// tools, slower where coarse pieces of curved surfaces are in contact. A stopped pair is
     /// dropped only where the surfaces its pieces stand for are beyond `δ`.
     DeviationAndCoherence,
+    /// The coherence rule's cap and cull, and its coherence condition held for the regions
+    /// together rather than one by one: the walk stops as the paper's rule does, then the
+    /// regions whose bound `w (1 − c)` on their force's direction error is largest are refined
+    /// under the coherence condition until the bounds left sum to at most the threshold's share
+    /// of the net force (`ε / tool radius` of `|Σ w n|`, per obstacle). A region whose pieces lie
+    /// apart (nearer only through the surfaces they stand for) and are less coherent than the
+    /// condition asks is refined whatever the budget: its weight says little of what those
+    /// surfaces push. Nearly as accurate as [`StoppingRule::DeviationAndCoherence`] where the
+    /// net force is not a small residual of opposed ones, at much less of its cost where many
+    /// small coarse regions touch (the jaws).
+    CoherenceBudget,
 }
 
 impl StoppingRule {
     /// Every rule.
-    pub const ALL: [Self; 2] = [Self::Deviation, Self::DeviationAndCoherence];
+    pub const ALL: [Self; 3] = [
+        Self::Deviation,
+        Self::DeviationAndCoherence,
+        Self::CoherenceBudget,
+    ];
 
     /// The rule's name in scene files (`contact.stopping_rule`), on the command line and in
-    /// Python: `"deviation"` or `"coherence"`. [`FromStr`] reads it back.
+    /// Python: `"deviation"`, `"coherence"` or `"coherence-budget"`. [`FromStr`] reads it back.
     pub fn name(self) -> &'static str {
         match self {
             Self::Deviation => "deviation",
             Self::DeviationAndCoherence => "coherence",
+            Self::CoherenceBudget => "coherence-budget",
         }
     }
 
@@ -74,14 +100,20 @@ impl StoppingRule {
         let epsilon_m = error_threshold * radius_m;
         match self {
             Self::Deviation => epsilon_m,
-            Self::DeviationAndCoherence => epsilon_m.min(delta_m),
+            Self::DeviationAndCoherence | Self::CoherenceBudget => epsilon_m.min(delta_m),
         }
+    }
+
+    /// Whether the regions written are refined until their bound on the direction error of
+    /// their force is within the threshold of the net force (`refine.rs`).
+    pub(crate) fn refines_regions(self) -> bool {
+        matches!(self, Self::CoherenceBudget)
     }
 
     /// Whether a stopped pair is dropped only when the surfaces its pieces stand for (the
     /// pieces shifted and spread by their height offset) lie beyond `δ`, rather than the pieces.
     pub(crate) fn culls_at_surfaces(self) -> bool {
-        matches!(self, Self::DeviationAndCoherence)
+        matches!(self, Self::DeviationAndCoherence | Self::CoherenceBudget)
     }
 
     /// The least normal coherence a contact's pieces may have when the walk's budget is
@@ -89,9 +121,11 @@ impl StoppingRule {
     pub(crate) fn min_coherence(self, epsilon_m: Real, radius_m: Real) -> Real {
         match self {
             Self::Deviation => -1.0,
-            Self::DeviationAndCoherence if radius_m > 0.0 => 1.0 - epsilon_m / radius_m,
+            Self::DeviationAndCoherence | Self::CoherenceBudget if radius_m > 0.0 => {
+                1.0 - epsilon_m / radius_m
+            }
             // A tool without extent (a single point): no coarse piece to stop at.
-            Self::DeviationAndCoherence => 1.0,
+            Self::DeviationAndCoherence | Self::CoherenceBudget => 1.0,
         }
     }
 }
@@ -104,7 +138,7 @@ impl fmt::Display for StoppingRule {
 
 /// A name that is not a [`StoppingRule`]'s ([`StoppingRule::name`]).
 #[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
-#[error("`{0}` is not a stopping rule: use \"deviation\" or \"coherence\"")]
+#[error("`{0}` is not a stopping rule: use \"deviation\", \"coherence\" or \"coherence-budget\"")]
 pub struct UnknownStoppingRule(pub String);
 
 impl FromStr for StoppingRule {

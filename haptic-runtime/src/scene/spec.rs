@@ -171,8 +171,9 @@ pub struct ContactSpec {
     /// update to fit it, and `error_threshold` is not used (see `haptic_runtime::budget`).
     pub time_budget_s: Option<Real>,
     /// Where the multiresolution back-end may stop at coarse pieces: `"deviation"` (the
-    /// paper's, the default) or `"coherence"` (also the pieces' normal coherence where they
-    /// touch; `haptic_collision::StoppingRule`).
+    /// paper's, the default), `"coherence"` (also the pieces' normal coherence where they
+    /// touch) or `"coherence-budget"` (that coherence held for the regions' sum against the net
+    /// force; `haptic_collision::StoppingRule`).
     #[serde(deserialize_with = "stopping_rule")]
     pub stopping_rule: haptic_collision::StoppingRule,
 }

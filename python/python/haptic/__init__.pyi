@@ -310,7 +310,11 @@ class LodBackend:
     ``1 - |sum a n| / sum a <= min(threshold, delta / radius)``, and a pair dropped only where
     the surfaces its pieces stand for, not the pieces, are beyond ``delta``: more accurate on
     threads, tines, long tools and other features smaller than the threshold, slower where
-    coarse curved pieces touch).
+    coarse curved pieces touch) or ``"coherence-budget"`` (the same cap and cull, and the
+    coherence held for the regions together: the regions whose ``weight * (1 - coherence)`` is
+    largest are refined until the rest sums to at most ``threshold`` times the net force; close
+    to ``"coherence"``'s accuracy at a fraction of its extra cost where many small coarse
+    regions touch).
 
     Raises:
         InputError: an obstacle that is not a ``(Mesh, pose)`` pair (``.field ==
@@ -325,7 +329,7 @@ class LodBackend:
         obstacles: Iterable[tuple[Mesh, _Pose]],
         cache_dir: str | os.PathLike[str] | None = None,
         max_contacts: int | None = 256,
-        stopping_rule: Literal["deviation", "coherence"] = "deviation",
+        stopping_rule: Literal["deviation", "coherence", "coherence-budget"] = "deviation",
     ) -> None: ...
     @property
     def cache_report(self) -> list[tuple[str, str]]:
@@ -525,7 +529,7 @@ class Scene:
         max_torque_nm: float = 1.0,
         workspace_half_m: float = 0.5,
         time_budget_s: float | None = None,
-        stopping_rule: Literal["deviation", "coherence"] = "deviation",
+        stopping_rule: Literal["deviation", "coherence", "coherence-budget"] = "deviation",
         torque_pairs: bool = True,
     ) -> Scene:
         """A scene from meshes and parameters: the fields of a scene file, with the same
@@ -563,8 +567,8 @@ class Scene:
                 not used (errors name ``"contact.time_budget_s"``); with a budget, virtual-time
                 runs depend on the machine's speed, and the parry back-end is refused.
             stopping_rule: where the LOD back-end may stop at coarse pieces, as
-                :class:`LodBackend`'s ``stopping_rule`` (``"deviation"``, the paper's, or
-                ``"coherence"``).
+                :class:`LodBackend`'s ``stopping_rule`` (``"deviation"``, the paper's,
+                ``"coherence"`` or ``"coherence-budget"``).
             torque_pairs: each cluster written as two springs that keep its contacts' torque
                 as well as their force (True), or as one spring (False, the paper's model);
                 as :class:`Clusterer`'s ``torque_pairs``.

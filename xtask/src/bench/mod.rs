@@ -52,8 +52,9 @@ pub struct CollisionArgs {
     /// `--only boxes-coarse,fork-in-mug`. The worst figures are then over those scenes only.
     #[arg(long, value_delimiter = ',', requires = "suite")]
     pub only: Option<Vec<String>>,
-    /// The LOD walk's stopping rule: `deviation` (the paper's, the default) or `coherence`
-    /// (also the pieces' normal coherence where a pair writes a contact).
+    /// The LOD walk's stopping rule: `deviation` (the paper's, the default), `coherence` (also
+    /// the pieces' normal coherence where a pair writes a contact) or `coherence-budget` (that
+    /// coherence held for the regions' sum against the net force).
     #[arg(long, default_value = "deviation")]
     pub stopping_rule: StoppingRule,
 }

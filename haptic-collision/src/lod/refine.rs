@@ -1,0 +1,260 @@
+//! The coherence rule's refinement: the regions' bound on the direction error of their force,
+//! held within the threshold of the net force by refining the regions that hold most of it.
+//!
+//! A region pushes along one normal (its obstacle piece's, turned by the normal field where it
+//! lies), while the surfaces its two pieces stand for face many ways. With `c` the lesser of the
+//! two pieces' normal coherences (`|Σ aᵢ nᵢ| / Σ aᵢ` over their triangles, 1 for a flat patch),
+//! the force `w n` it writes (`w = ∫g`, the penalty's weight over the region) is off the force
+//! its surfaces would give by about `w (1 − c)` (`stopping.rs`). The paper's rule does not see
+//! this; asking every region for `1 − c ≤ τ` (`τ = ε / r`, the threshold the walk stands for)
+//! bounds each region's error by the same fraction as the threshold, but descends every coarse
+//! pair of a curved or bumpy surface, whether it carries much of the force or not.
+//!
+//! So the rule bounds the sum instead, against the force the user feels: after the walk, the
+//! bound of every region written, `Σ wᵢ (1 − cᵢ)`, is compared with `τ |Σ wᵢ nᵢ|`. Where it is
+//! larger, the regions with the largest bounds are taken out, largest first, until what is left
+//! is within `τ |Σ wᵢ nᵢ|`; each pair taken out is descended and walked again, where a region
+//! is written only if both its pieces have `1 − c ≤ τ`. The net force is that of the regions
+//! first written: where opposed contacts cancel (a peg in its hole, a bolt in its nut), it is
+//! small, the budget with it, and more is refined. Triangle pairs (`c = 1`) are never taken
+//! out, so at threshold 0 nothing changes. Each obstacle is refined against its own net force.
+
+use haptic_core::{ContactSet, QueryStats, Real, Vec3};
+
+use super::LodError;
+use super::build::Hierarchy;
+use super::query::{Pass, Scratch, Walk, descend, walk_from_stack};
+
+/// A region the walk wrote, for the refinement to choose from.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub(crate) struct Written {
+    /// Its contact's index in the output.
+    pub index: u32,
+    /// The pair (tool node, obstacle node) that wrote it.
+    pub pair: (u32, u32),
+    /// The bound on its force's direction error, `w (1 − c)` (m³: the penalty's weight `∫g`, a
+    /// force over the stiffness).
+    pub bound: Real,
+    /// Its force over the stiffness, `w n` (obstacle frame, m³).
+    pub force: Vec3,
+    /// Whether it is refined whatever the budget: its pieces are less coherent than the rule
+    /// asks and lie apart, so that its weight says little of what their surfaces push.
+    pub always: bool,
+}
+
+impl Written {
+    /// The region of contact `index`, written by `pair` with weight `w` (`∫g`, m³) along `n`,
+    /// its pieces' lesser normal coherence `coherence`; `always` refined or by the budget.
+    #[inline]
+    pub fn of(
+        index: usize,
+        pair: (u32, u32),
+        w: Real,
+        coherence: Real,
+        n: &Vec3,
+        always: bool,
+    ) -> Self {
+        Self {
+            index: index as u32,
+            pair,
+            bound: w * (1.0 - coherence).max(0.0),
+            force: n * w,
+            always,
+        }
+    }
+}
+
+/// How many of `written` must be refined, moved to its front: every one marked `always`, then
+/// the fewest of the others, largest bound first, that leave the rest of the bounds summing to
+/// at most `budget`. Entries of bound 0 (triangle pairs, flat pieces) are taken only when
+/// marked.
+pub(crate) fn take_largest(written: &mut [Written], budget: Real) -> usize {
+    // The marked ones first (a partition, in place).
+    let mut marked = 0;
+    for i in 0..written.len() {
+        if written[i].always {
+            written.swap(marked, i);
+            marked += 1;
+        }
+    }
+    let rest = &mut written[marked..];
+    let total: Real = rest.iter().map(|w| w.bound).sum();
+    let excess = total - budget;
+    // (A NaN, from bounds that are not finite, refines nothing more.)
+    if excess.is_nan() || excess <= 0.0 {
+        return marked;
+    }
+    let larger = |x: &Written, y: &Written| y.bound.total_cmp(&x.bound);
+    // The fewest largest bounds that cover the excess: partition off the largest k (k doubling,
+    // each partition linear), then sort only those.
+    let mut k = rest.len().min(16);
+    loop {
+        if k < rest.len() {
+            rest.select_nth_unstable_by(k - 1, larger);
+        }
+        let top: Real = rest[..k].iter().map(|w| w.bound).sum();
+        if top >= excess || k == rest.len() {
+            break;
+        }
+        k = (2 * k).min(rest.len());
+    }
+    rest[..k].sort_unstable_by(larger);
+    let mut taken = 0;
+    let mut left = excess;
+    for w in &rest[..k] {
+        if left <= 0.0 || w.bound.is_nan() || w.bound <= 0.0 {
+            break;
+        }
+        left -= w.bound;
+        taken += 1;
+    }
+    marked + taken
+}
+
+/// Refines the regions written against `obstacle` since `out[start]` (noted in
+/// `scratch.written`) as the module docs say.
+///
+/// # Errors
+/// [`LodError::Core`] for a non-finite contact.
+#[allow(clippy::too_many_arguments)]
+pub(crate) fn refine_regions(
+    tool: &Hierarchy,
+    obs: &Hierarchy,
+    obstacle: u32,
+    walk: &Walk<'_>,
+    start: usize,
+    scratch: &mut Scratch,
+    out: &mut ContactSet,
+    stats: &mut QueryStats,
+) -> Result<(), LodError> {
+    let written = &mut scratch.written;
+    let net = written
+        .iter()
+        .fold(Vec3::zeros(), |sum, w| sum + w.force)
+        .norm();
+    let tau = 1.0 - walk.min_coherence;
+    let taken = take_largest(written, tau * net);
+    if taken == 0 {
+        return Ok(());
+    }
+    let taken = &mut written[..taken];
+    taken.sort_unstable_by_key(|w| w.index);
+    // Their contacts out, the rest in order.
+    let (mut i, mut next) = (0, 0);
+    out.retain(|_| {
+        let keep = i < start || taken.get(next).is_none_or(|w| w.index as usize != i);
+        if !keep {
+            next += 1;
+        }
+        i += 1;
+        keep
+    });
+    // The smallest distance written against this obstacle, now that some are gone (every
+    // contact since `start` is a region's, at distance `−depth`).
+    let nearest = &mut scratch.nearest[obstacle as usize];
+    nearest.written_m = out.as_slice()[start..]
+        .iter()
+        .map(|c| -c.depth_m)
+        .fold(Real::INFINITY, Real::min);
+    let stack = &mut scratch.stack;
+    stack.clear();
+    for w in taken.iter().rev() {
+        let (ia, ib) = w.pair;
+        descend(
+            ia,
+            &tool.nodes[ia as usize],
+            ib,
+            &obs.nodes[ib as usize],
+            stack,
+        );
+    }
+    walk_from_stack(
+        tool,
+        obs,
+        obstacle,
+        walk,
+        Pass::PairByPair,
+        scratch,
+        out,
+        stats,
+    )
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn written(bounds: &[Real]) -> Vec<Written> {
+        bounds
+            .iter()
+            .enumerate()
+            .map(|(i, &b)| Written {
+                index: i as u32,
+                pair: (i as u32, 0),
+                bound: b,
+                force: Vec3::zeros(),
+                always: false,
+            })
+            .collect()
+    }
+
+    #[test]
+    fn the_fewest_largest_bounds_that_bring_the_rest_within_budget_are_taken() {
+        // 40 small bounds and three large ones: the rest must come within 1.0.
+        let mut bounds = vec![0.01; 40];
+        bounds.extend([3.0, 0.5, 2.0]);
+        let mut w = written(&bounds);
+        let k = take_largest(&mut w, 1.0);
+        // Total 5.9: taking 3.0 leaves 2.9, then 2.0 leaves 0.9 ≤ 1.0.
+        assert_eq!(k, 2);
+        let taken: Vec<Real> = w[..k].iter().map(|w| w.bound).collect();
+        assert_eq!(taken, [3.0, 2.0]);
+        let rest: Real = w[k..].iter().map(|w| w.bound).sum();
+        assert!(rest <= 1.0 + 1e-12);
+    }
+
+    #[test]
+    fn marked_regions_are_taken_whatever_the_budget() {
+        let mut w = written(&[0.0, 0.2, 0.0, 5.0]);
+        w[2].always = true;
+        // Within budget without it: only the marked one.
+        let k = take_largest(&mut w, 10.0);
+        assert_eq!(k, 1);
+        assert_eq!(w[0].index, 2);
+        // Over budget: the marked one, then the largest.
+        let mut w = written(&[0.0, 0.2, 0.0, 5.0]);
+        w[0].always = true;
+        let k = take_largest(&mut w, 1.0);
+        assert_eq!(k, 2);
+        assert_eq!((w[0].index, w[1].index), (0, 3));
+    }
+
+    #[test]
+    fn nothing_is_taken_within_budget_and_zero_bounds_never() {
+        let mut w = written(&[0.2, 0.3]);
+        assert_eq!(take_largest(&mut w, 0.5), 0);
+        // A budget of zero takes every positive bound and no zero one.
+        let mut w = written(&[0.0, 0.4, 0.0, 0.1]);
+        assert_eq!(take_largest(&mut w, 0.0), 2);
+        assert!(w[..2].iter().all(|w| w.bound > 0.0));
+        // Many entries: the doubling partition finds the same answer as a full sort.
+        let bounds: Vec<Real> = (0..1000)
+            .map(|i| ((i * 7919) % 1000) as Real * 1e-3)
+            .collect();
+        let mut w = written(&bounds);
+        let total: Real = bounds.iter().sum();
+        let k = take_largest(&mut w, 0.5 * total);
+        let mut sorted = bounds.clone();
+        sorted.sort_by(|a, b| b.total_cmp(a));
+        let mut left = 0.5 * total;
+        let expected = sorted
+            .iter()
+            .take_while(|&&b| {
+                let take = left > 0.0;
+                left -= b;
+                take
+            })
+            .count();
+        assert_eq!(k, expected);
+    }
+}
