@@ -397,6 +397,9 @@ impl CollisionBackend for LodBackend {
             }
             stats.broad_phase_hit = true;
             let walk = Walk {
+                tool: &self.tool,
+                obs,
+                obstacle: o as u32,
                 frames: &frames,
                 epsilon_m,
                 delta_m: params.delta_m,
@@ -404,15 +407,7 @@ impl CollisionBackend for LodBackend {
                 cull_at_surfaces: self.stopping_rule.culls_at_surfaces(),
                 refine: self.stopping_rule.refines_regions(),
             };
-            collide(
-                &self.tool,
-                obs,
-                o as u32,
-                &walk,
-                &mut self.scratch,
-                out,
-                &mut stats,
-            )?;
+            collide(&walk, &mut self.scratch, out, &mut stats)?;
         }
         closest_approaches(
             &self.tool,

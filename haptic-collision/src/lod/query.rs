@@ -197,8 +197,14 @@ fn apart_along(a: &[Vec3], b: &[Vec3], from: &Vec3, to: &Vec3, delta: Real) -> b
     b_min - a_max > delta
 }
 
-/// What one traversal needs besides the hierarchies.
+/// What one traversal of the tool against one obstacle needs.
 pub(crate) struct Walk<'a> {
+    /// The tool's hierarchy.
+    pub tool: &'a Hierarchy,
+    /// The obstacle's hierarchy.
+    pub obs: &'a Hierarchy,
+    /// The obstacle's index (in `Scratch::nearest` and `Scratch::apart`).
+    pub obstacle: u32,
     pub frames: &'a Frames,
     /// Absolute error threshold (m) on `s_a + s_b`; 0 descends to triangles.
     pub epsilon_m: Real,
@@ -275,17 +281,14 @@ impl Nearest {
     }
 }
 
-/// Walks tool × obstacle `obstacle` from the root pair and writes one contact per stopped pair
-/// into `out` ([`pair_region`]), noting the distances in `scratch.nearest[obstacle]` and the
+/// Walks the tool against obstacle `walk.obstacle` from the root pair and writes one contact per
+/// stopped pair into `out` ([`pair_region`]), noting the distances in `scratch.nearest` and the
 /// pairs whose closest approach may lie outside their region in `scratch.apart`; then, where
 /// the walk refines its regions, refines them (`refine.rs`).
 ///
 /// # Errors
 /// [`LodError::Core`] for a non-finite contact.
 pub(crate) fn collide(
-    tool: &Hierarchy,
-    obs: &Hierarchy,
-    obstacle: u32,
     walk: &Walk<'_>,
     scratch: &mut Scratch,
     out: &mut ContactSet,
@@ -300,9 +303,9 @@ pub(crate) fn collide(
     } else {
         Pass::PairByPair
     };
-    walk_from_stack(tool, obs, obstacle, walk, pass, scratch, out, stats)?;
+    walk_from_stack(walk, pass, scratch, out, stats)?;
     if walk.refine {
-        refine_regions(tool, obs, obstacle, walk, start, scratch, out, stats)?;
+        refine_regions(walk, start, scratch, out, stats)?;
     }
     Ok(())
 }
@@ -324,11 +327,7 @@ pub(crate) enum Pass {
 ///
 /// # Errors
 /// [`LodError::Core`] for a non-finite contact.
-#[allow(clippy::too_many_arguments)]
 pub(crate) fn walk_from_stack(
-    tool: &Hierarchy,
-    obs: &Hierarchy,
-    obstacle: u32,
     walk: &Walk<'_>,
     pass: Pass,
     scratch: &mut Scratch,
@@ -342,6 +341,7 @@ pub(crate) fn walk_from_stack(
         written,
         ..
     } = scratch;
+    let (tool, obs, obstacle) = (walk.tool, walk.obs, walk.obstacle);
     let frames = walk.frames;
     let delta = walk.delta_m;
     let min_coherence = if pass == Pass::Record {

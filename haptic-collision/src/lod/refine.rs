@@ -22,7 +22,6 @@
 use haptic_core::{ContactSet, QueryStats, Real, Vec3};
 
 use super::LodError;
-use super::build::Hierarchy;
 use super::query::{Pass, Scratch, Walk, descend, walk_from_stack};
 
 /// A region the walk wrote, for the refinement to choose from.
@@ -116,17 +115,14 @@ pub(crate) fn take_largest(written: &mut [Written], budget: Real) -> usize {
 ///
 /// # Errors
 /// [`LodError::Core`] for a non-finite contact.
-#[allow(clippy::too_many_arguments)]
 pub(crate) fn refine_regions(
-    tool: &Hierarchy,
-    obs: &Hierarchy,
-    obstacle: u32,
     walk: &Walk<'_>,
     start: usize,
     scratch: &mut Scratch,
     out: &mut ContactSet,
     stats: &mut QueryStats,
 ) -> Result<(), LodError> {
+    let (tool, obs, obstacle) = (walk.tool, walk.obs, walk.obstacle);
     let written = &mut scratch.written;
     let net = written
         .iter()
@@ -168,16 +164,7 @@ pub(crate) fn refine_regions(
             stack,
         );
     }
-    walk_from_stack(
-        tool,
-        obs,
-        obstacle,
-        walk,
-        Pass::PairByPair,
-        scratch,
-        out,
-        stats,
-    )
+    walk_from_stack(walk, Pass::PairByPair, scratch, out, stats)
 }
 
 #[cfg(test)]
