@@ -1,5 +1,6 @@
-//! The coherence rule's refinement: the regions' bound on the direction error of their force,
-//! held within the threshold of the net force by refining the regions that hold most of it.
+//! The budgeted rule's refinement ([`super::StoppingRule::CoherenceBudget`]): the regions'
+//! bound on the direction error of their force, held within the threshold of the net force by
+//! refining the regions that hold most of it.
 //!
 //! A region pushes along one normal (its obstacle piece's, turned by the normal field where it
 //! lies), while the surfaces its two pieces stand for face many ways. With `c` the lesser of the
@@ -18,6 +19,13 @@
 //! first written: where opposed contacts cancel (a peg in its hole, a bolt in its nut), it is
 //! small, the budget with it, and more is refined. Triangle pairs (`c = 1`) are never taken
 //! out, so at threshold 0 nothing changes. Each obstacle is refined against its own net force.
+//!
+//! One kind of region is refined whatever the budget: one whose pieces fail the coherence
+//! condition and lie apart, nearer than `δ` only through the surfaces they stand for. Its depth
+//! is held at the pieces' distance and its weight is the surfaces' spread's, next to nothing,
+//! while the surfaces themselves may come well within `δ` (the fork in the mug lost 2 N that
+//! way beside regions whose weight made the budget;
+//! `docs/experiments/lod-accuracy-and-speed-probes.md`, probe 24).
 
 use haptic_core::{ContactSet, QueryStats, Real, Vec3};
 
