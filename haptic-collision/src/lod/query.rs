@@ -294,20 +294,15 @@ pub(crate) fn collide(
     out: &mut ContactSet,
     stats: &mut QueryStats,
 ) -> Result<(), LodError> {
-    let start = out.len();
     scratch.stack.clear();
     scratch.stack.push((0, 0));
-    scratch.written.clear();
-    let pass = if walk.refine {
-        Pass::Record
-    } else {
-        Pass::PairByPair
-    };
-    walk_from_stack(walk, pass, scratch, out, stats)?;
-    if walk.refine {
-        refine_regions(walk, start, scratch, out, stats)?;
+    if !walk.refine {
+        return walk_from_stack(walk, Pass::PairByPair, scratch, out, stats);
     }
-    Ok(())
+    let start = out.len();
+    scratch.written.clear();
+    walk_from_stack(walk, Pass::Record, scratch, out, stats)?;
+    refine_regions(walk, start, scratch, out, stats)
 }
 
 /// How a walk treats the regions it writes.
