@@ -65,7 +65,7 @@ impl PyScene {
         clusters = 5, error_threshold = 0.0, linearized = true, fixed_frames = true,
         haptic_rate_hz = 1000.0,
         contact_rate_hz = None, waypoints = None, max_force_n = 10.0, max_torque_nm = 1.0,
-        workspace_half_m = 0.5, time_budget_s = None, stopping_rule = "deviation",
+        workspace_half_m = 0.5, time_budget_s = None, stopping_rule = "coherence-budget",
         torque_pairs = true))]
     fn from_parts(
         py: Python<'_>,

@@ -248,12 +248,13 @@ fn query<B: CollisionBackend + Send>(
 }
 
 /// The native sensation-preserving multiresolution back-end: `LodBackend(tool, obstacles,
-/// cache_dir=None, max_contacts=256, stopping_rule="deviation")`, the tool mesh in its body
+/// cache_dir=None, max_contacts=256, stopping_rule="coherence-budget")`, the tool mesh in its body
 /// frame and `[(Mesh, pose), …]` the obstacles with their world poses. With `cache_dir`, each
 /// hierarchy is read back from that folder when it was saved there for the same mesh, and built
 /// and saved there otherwise (a file that cannot be used is rebuilt, never used).
-/// `stopping_rule="coherence"` is `haptic_collision::StoppingRule::DeviationAndCoherence`,
-/// `"coherence-budget"` is `haptic_collision::StoppingRule::CoherenceBudget`.
+/// `stopping_rule="coherence-budget"` (the default) is
+/// `haptic_collision::StoppingRule::CoherenceBudget`, `"deviation"` the paper's
+/// `StoppingRule::Deviation`, `"coherence"` `StoppingRule::DeviationAndCoherence`.
 /// Building the hierarchies and querying release the GIL; one back-end may be used from several
 /// Python threads (their queries take turns).
 #[pyclass(module = "haptic", name = "LodBackend", frozen)]
@@ -267,7 +268,7 @@ pub struct PyLodBackend {
 #[pymethods]
 impl PyLodBackend {
     #[new]
-    #[pyo3(signature = (tool, obstacles, cache_dir = None, max_contacts = Some(haptic_collision::DEFAULT_MAX_CONTACTS), stopping_rule = "deviation"))]
+    #[pyo3(signature = (tool, obstacles, cache_dir = None, max_contacts = Some(haptic_collision::DEFAULT_MAX_CONTACTS), stopping_rule = "coherence-budget"))]
     fn new(
         py: Python<'_>,
         tool: PyRef<'_, PyMesh>,

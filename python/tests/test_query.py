@@ -383,25 +383,29 @@ def test_bad_obstacles_are_input_errors(make_box, cls):
     assert e.value.field == "obstacles"
 
 
-def test_stopping_rule(jaws_meshes, jaws_lod):
-    # The coherence rule only stops coarse pairs later: at threshold 0 it gives the same
-    # contacts, above it it tests at least as many node pairs; an unknown rule is refused.
+def test_stopping_rule(jaws_meshes, jaws_lod, tmp_path):
+    # Every rule gives the same contacts at threshold 0. Above it the coherence rule and the
+    # budgeted one (the default) stop coarse pairs no earlier than the paper's rule: at least
+    # its node pairs. The default is the budgeted rule; an unknown rule is refused.
     upper, lower = jaws_meshes
-    coherent = haptic.LodBackend(upper, [(lower, IDENTITY)], stopping_rule="coherence")
+
+    def build(rule: str) -> haptic.LodBackend:
+        return haptic.LodBackend(upper, [(lower, IDENTITY)], cache_dir=tmp_path, stopping_rule=rule)
+
+    paper, coherent, budget = build("deviation"), build("coherence"), build("coherence-budget")
     pose = POSES["occlusion"]
-    exact, _ = jaws_lod.query(pose, delta=DELTA, threshold=0.0)
-    same, _ = coherent.query(pose, delta=DELTA, threshold=0.0)
-    assert np.array_equal(exact.p_a, same.p_a) and np.array_equal(exact.area, same.area)
-    _, paper = jaws_lod.query(pose, delta=DELTA, threshold=0.025)
-    _, finer = coherent.query(pose, delta=DELTA, threshold=0.025)
-    assert finer.node_pairs_tested >= paper.node_pairs_tested
-    # The budgeted rule walks as the paper's rule does, then refines: the same contacts at 0,
-    # at least the paper's node pairs above it.
-    budget = haptic.LodBackend(upper, [(lower, IDENTITY)], stopping_rule="coherence-budget")
-    same, _ = budget.query(pose, delta=DELTA, threshold=0.0)
-    assert np.array_equal(exact.p_a, same.p_a) and np.array_equal(exact.area, same.area)
-    _, refined = budget.query(pose, delta=DELTA, threshold=0.025)
-    assert refined.node_pairs_tested >= paper.node_pairs_tested
+    exact, _ = paper.query(pose, delta=DELTA, threshold=0.0)
+    _, walked = paper.query(pose, delta=DELTA, threshold=0.025)
+    for rule in (coherent, budget, jaws_lod):
+        same, _ = rule.query(pose, delta=DELTA, threshold=0.0)
+        assert np.array_equal(exact.p_a, same.p_a) and np.array_equal(exact.area, same.area)
+        _, finer = rule.query(pose, delta=DELTA, threshold=0.025)
+        assert finer.node_pairs_tested >= walked.node_pairs_tested
+    default, _ = jaws_lod.query(pose, delta=DELTA, threshold=0.025)
+    budgeted, _ = budget.query(pose, delta=DELTA, threshold=0.025)
+    coarse, _ = paper.query(pose, delta=DELTA, threshold=0.025)
+    assert np.array_equal(default.p_a, budgeted.p_a)
+    assert len(default.area) != len(coarse.area) or not np.array_equal(default.area, coarse.area)
     with pytest.raises(haptic.InputError) as e:
         haptic.LodBackend(upper, [(lower, IDENTITY)], stopping_rule="normals")
     assert e.value.field == "stopping_rule"

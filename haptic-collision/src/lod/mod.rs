@@ -298,8 +298,8 @@ impl LodBackend {
         self.max_contacts
     }
 
-    /// The same back-end stopping its walk by `rule` ([`StoppingRule`]; the paper's
-    /// [`StoppingRule::Deviation`] by default).
+    /// The same back-end stopping its walk by `rule` ([`StoppingRule`];
+    /// [`StoppingRule::CoherenceBudget`] by default, the paper's is [`StoppingRule::Deviation`]).
     pub fn with_stopping_rule(mut self, rule: StoppingRule) -> Self {
         self.stopping_rule = rule;
         self

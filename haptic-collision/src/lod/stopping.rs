@@ -54,8 +54,7 @@ use haptic_core::Real;
 #[non_exhaustive]
 pub enum StoppingRule {
     /// The paper's rule: `s_a + s_b ≤ ε` (the pieces' surface deviations within
-    /// `error_threshold × tool radius`). The default.
-    #[default]
+    /// `error_threshold × tool radius`). The paper's studies use it (`cargo xtask study jaws`).
     Deviation,
     /// The paper's rule with `ε` at most `δ`, and where the pair writes a contact, each piece's
     /// normal coherence within the threshold `ε` stands for: `1 − c ≤ ε / tool radius`. More
@@ -72,7 +71,9 @@ pub enum StoppingRule {
     /// condition asks is refined whatever the budget: its weight says little of what those
     /// surfaces push. Nearly as accurate as [`StoppingRule::DeviationAndCoherence`] where the
     /// net force is not a small residual of opposed ones, at much less of its cost where many
-    /// small coarse regions touch (the jaws).
+    /// small coarse regions touch (the jaws). The default: of the three, the one whose error
+    /// at a threshold depends least on the scene (`docs/decisions.md`, "Stopping rule").
+    #[default]
     CoherenceBudget,
 }
 
@@ -157,11 +158,11 @@ mod tests {
     use super::*;
 
     #[test]
-    fn the_paper_rule_accepts_any_coherence_and_the_other_follows_the_threshold() {
+    fn the_paper_rule_accepts_any_coherence_and_the_others_follow_the_threshold() {
         let (r, delta) = (0.04, 1e-3);
         let rule = StoppingRule::DeviationAndCoherence;
         assert!(StoppingRule::Deviation.min_coherence(0.025 * r, r) < 0.0);
-        assert_eq!(StoppingRule::default(), StoppingRule::Deviation);
+        assert_eq!(StoppingRule::default(), StoppingRule::CoherenceBudget);
         let eps = rule.epsilon_m(0.025, r, delta);
         assert_eq!(eps, 0.025 * r, "below δ: the paper's ε");
         let c = rule.min_coherence(eps, r);

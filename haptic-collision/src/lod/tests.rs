@@ -875,7 +875,10 @@ fn under_both_rules(
     delta: Real,
     threshold: Real,
 ) -> (Vec3, Vec3) {
-    let mut paper = reference.clone().with_max_contacts(Some(256));
+    let mut paper = reference
+        .clone()
+        .with_max_contacts(Some(256))
+        .with_stopping_rule(StoppingRule::Deviation);
     let mut coherent = paper
         .clone()
         .with_stopping_rule(StoppingRule::DeviationAndCoherence);
@@ -1022,7 +1025,9 @@ fn the_coherence_rule_caps_epsilon_at_delta() {
         orientation: UnitQuaternion::identity(),
     };
     let delta = 0.001;
-    let paper = LodBackend::new(&tool, &obstacles).unwrap();
+    let paper = LodBackend::new(&tool, &obstacles)
+        .unwrap()
+        .with_stopping_rule(StoppingRule::Deviation);
     let radius = paper.tool_bounding_radius_m();
     let at_delta = delta / radius;
     assert!(0.15 > 4.0 * at_delta, "δ / radius {at_delta}");

@@ -24,7 +24,7 @@
 //! error_threshold = 0.0
 //! linearized = true
 //! fixed_frames = true
-//! stopping_rule = "deviation"   # or "coherence", "coherence-budget" (haptic_collision::StoppingRule)
+//! stopping_rule = "coherence-budget"   # or "deviation" (the paper's), "coherence" (haptic_collision::StoppingRule)
 //!
 //! [rates]
 //! haptic_hz = 1000.0

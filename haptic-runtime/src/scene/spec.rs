@@ -170,10 +170,10 @@ pub struct ContactSpec {
     /// A time budget per contact update (s): the error threshold is then picked update by
     /// update to fit it, and `error_threshold` is not used (see `haptic_runtime::budget`).
     pub time_budget_s: Option<Real>,
-    /// Where the multiresolution back-end may stop at coarse pieces: `"deviation"` (the
-    /// paper's, the default), `"coherence"` (also the pieces' normal coherence where they
-    /// touch) or `"coherence-budget"` (that coherence held for the regions' sum against the net
-    /// force; `haptic_collision::StoppingRule`).
+    /// Where the multiresolution back-end may stop at coarse pieces: `"coherence-budget"` (the
+    /// default: the pieces' normal coherence held for the regions' sum against the net force),
+    /// `"deviation"` (the paper's) or `"coherence"` (that coherence wherever a pair writes a
+    /// contact; `haptic_collision::StoppingRule`).
     #[serde(deserialize_with = "stopping_rule")]
     pub stopping_rule: haptic_collision::StoppingRule,
 }
@@ -198,7 +198,7 @@ impl Default for ContactSpec {
             linearized: true,
             fixed_frames: true,
             time_budget_s: None,
-            stopping_rule: haptic_collision::StoppingRule::Deviation,
+            stopping_rule: haptic_collision::StoppingRule::default(),
         }
     }
 }

@@ -38,13 +38,17 @@ fn the_contact_model_between_updates_is_fixed_frames_unless_asked() {
 }
 
 #[test]
-fn the_stopping_rule_is_the_papers_unless_asked() {
-    use haptic_collision::StoppingRule::{Deviation, DeviationAndCoherence};
+fn the_stopping_rule_is_the_budgeted_one_unless_asked() {
+    use haptic_collision::StoppingRule::{CoherenceBudget, Deviation, DeviationAndCoherence};
     let with = |contact: &str| {
         let text = format!("{MINIMAL}\n[contact]\n{contact}\n");
         Scene::from_toml_str(&text, Path::new(".")).map(|s| s.contact.stopping_rule)
     };
-    assert_eq!(with("").unwrap(), Deviation);
+    assert_eq!(with("").unwrap(), CoherenceBudget);
+    assert_eq!(
+        with("stopping_rule = \"coherence-budget\"").unwrap(),
+        CoherenceBudget
+    );
     assert_eq!(with("stopping_rule = \"deviation\"").unwrap(), Deviation);
     assert_eq!(
         with("stopping_rule = \"coherence\"").unwrap(),

@@ -52,10 +52,10 @@ pub struct CollisionArgs {
     /// `--only boxes-coarse,fork-in-mug`. The worst figures are then over those scenes only.
     #[arg(long, value_delimiter = ',', requires = "suite")]
     pub only: Option<Vec<String>>,
-    /// The LOD walk's stopping rule: `deviation` (the paper's, the default), `coherence` (also
-    /// the pieces' normal coherence where a pair writes a contact) or `coherence-budget` (that
-    /// coherence held for the regions' sum against the net force).
-    #[arg(long, default_value = "deviation")]
+    /// The LOD walk's stopping rule: `coherence-budget` (the default: the pieces' normal
+    /// coherence held for the regions' sum against the net force), `deviation` (the paper's) or
+    /// `coherence` (that coherence wherever a pair writes a contact).
+    #[arg(long, default_value = "coherence-budget")]
     pub stopping_rule: StoppingRule,
 }
 
@@ -81,12 +81,16 @@ mod tests {
     }
 
     #[test]
-    fn stopping_rule_is_the_papers_unless_asked() {
+    fn stopping_rule_is_the_default_unless_asked() {
         let rule = |args: &[&str]| {
             Cmd::try_parse_from(std::iter::once("collision").chain(args.iter().copied()))
                 .map(|c| c.collision.stopping_rule)
         };
-        assert_eq!(rule(&[]).unwrap(), StoppingRule::Deviation);
+        assert_eq!(rule(&[]).unwrap(), StoppingRule::default());
+        assert_eq!(
+            rule(&["--stopping-rule", "deviation"]).unwrap(),
+            StoppingRule::Deviation
+        );
         assert_eq!(
             rule(&["--stopping-rule", "coherence"]).unwrap(),
             StoppingRule::DeviationAndCoherence

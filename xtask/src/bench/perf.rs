@@ -445,7 +445,7 @@ pub fn run(out: &crate::OutArgs) -> anyhow::Result<()> {
         "generalization suite ({}):",
         if quick { "quick" } else { "full" }
     );
-    let suite_worst = super::suite::run(out_args, None, haptic_collision::StoppingRule::Deviation)?;
+    let suite_worst = super::suite::run(out_args, None, haptic_collision::StoppingRule::default())?;
 
     let report = PerfReport {
         haptic_step: haptic,

@@ -80,7 +80,8 @@ fn run_once(
     let mut parts = scene.assemble()?;
     parts.config.haptic_rate_hz = haptic_hz;
     parts.config.realtime_scheduling = realtime;
-    let backend = LodBackend::new(&parts.tool_mesh, &parts.obstacles)?;
+    let backend = LodBackend::new(&parts.tool_mesh, &parts.obstacles)?
+        .with_stopping_rule(parts.stopping_rule);
     let mut pipeline = PipelineBuilder::new(parts.body, parts.tool_pose)
         .integrator(LinearizedBackwardEuler)
         .backend(backend)

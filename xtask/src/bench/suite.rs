@@ -94,7 +94,7 @@ fn file_scene(name: &str, n: usize) -> anyhow::Result<Entry> {
         scale: None,
         suite: false,
         only: None,
-        stopping_rule: haptic_collision::StoppingRule::Deviation,
+        stopping_rule: haptic_collision::StoppingRule::default(),
     };
     Ok(Entry {
         scene: collision::load_scene(&args, n)?,
