@@ -13,13 +13,15 @@
 //! tool's hierarchy against each obstacle's. A node pair is culled when its bounding volumes are
 //! farther apart than `δ`; it stops when `s_a + s_b <= ε`, with `ε = error_threshold ×`
 //! [`LodBackend::tool_bounding_radius_m`], or at two triangles; otherwise the node with the
-//! larger deviation is split. [`StoppingRule::DeviationAndCoherence`]
+//! larger deviation is split: that is the paper's rule, [`StoppingRule::Deviation`].
+//! [`StoppingRule::DeviationAndCoherence`]
 //! ([`LodBackend::with_stopping_rule`]) caps `ε` at `δ` and also bounds, where a pair writes a
 //! contact, how many ways each piece's surface faces (its normal coherence, `stopping.rs`),
 //! descending the pair otherwise; it drops a stopped pair only where the surfaces its pieces
 //! stand for, not the pieces, are beyond `δ`. [`StoppingRule::CoherenceBudget`] holds that
 //! bound for the regions' sum against the net force instead of region by region, refining
-//! after the walk the regions that hold most of it (`refine.rs`).
+//! after the walk the regions that hold most of it (`refine.rs`); it is the default
+//! (`docs/decisions.md`, "Stopping rule").
 //!
 //! A stopped pair writes one contact: the penalty integrated over the part of the tool piece
 //! that lies over the obstacle piece within `δ` of its plane (`slab.rs`,
