@@ -97,6 +97,18 @@ pub trait CollisionBackend {
         params: &QueryParams,
         out: &mut ContactSet,
     ) -> Result<QueryStats, Self::Error>;
+
+    /// The error threshold (a fraction of [`CollisionBackend::tool_bounding_radius_m`]) that a
+    /// query at `params` holds: at most `params.error_threshold`, and less where the back-end
+    /// bounds its error more tightly than asked (`haptic-collision`'s `LodBackend` never lets a
+    /// piece lie farther than `δ` from its surface under its default stopping rule, so above
+    /// `δ / radius` a larger threshold changes nothing). A contact stage reports it as each
+    /// update's threshold, and a time budget asks for no coarser threshold than the largest one
+    /// it can reach. The default, `params.error_threshold`, suits a back-end that reads the
+    /// threshold as asked or not at all.
+    fn threshold_reached(&self, params: &QueryParams) -> Real {
+        params.error_threshold
+    }
 }
 
 impl<B: CollisionBackend + ?Sized> CollisionBackend for &mut B {
@@ -115,6 +127,9 @@ impl<B: CollisionBackend + ?Sized> CollisionBackend for &mut B {
     ) -> Result<QueryStats, Self::Error> {
         (**self).query(tool_pose, params, out)
     }
+    fn threshold_reached(&self, params: &QueryParams) -> Real {
+        (**self).threshold_reached(params)
+    }
 }
 
 impl<B: CollisionBackend + ?Sized> CollisionBackend for Box<B> {
@@ -132,5 +147,8 @@ impl<B: CollisionBackend + ?Sized> CollisionBackend for Box<B> {
         out: &mut ContactSet,
     ) -> Result<QueryStats, Self::Error> {
         (**self).query(tool_pose, params, out)
+    }
+    fn threshold_reached(&self, params: &QueryParams) -> Real {
+        (**self).threshold_reached(params)
     }
 }

@@ -9,9 +9,12 @@
 //! step), within `[min_threshold, max_threshold]`: a cost `c θ^-p` converges to the budget
 //! geometrically (each step removes a share `p/2` of the log error), and one slow update (a
 //! page fault, a busy core) moves it by half its excess only. Updates in free space and failed
-//! ones do not move it. Each update reports the threshold it was computed at. A budget that the
-//! coarsest threshold cannot meet is not met: the threshold stays at its ceiling (on the jaws'
-//! benchmark poses, 10 % costs about a third of 0.4 %).
+//! ones do not move it. Each update reports the threshold its query held
+//! (`CollisionBackend::threshold_reached`: the one asked, or less where the back-end holds a
+//! tighter one). A budget that the coarsest threshold cannot meet is not met: the threshold
+//! stays at its ceiling, the budget's or the coarsest the back-end reaches, whichever is lower
+//! (under `LodBackend`'s default rule, `δ / radius`: on the jaws 2.7 %, where a query costs
+//! about a third of one at 0.4 %).
 //!
 //! This is a controller across updates, not a refinement within one query that stops when the
 //! time is up: an update may overrun when the contact changes abruptly (the next one is
@@ -119,6 +122,17 @@ impl ThresholdController {
         &self.budget
     }
 
+    /// Holds the threshold at or below `ceiling` (and at or above the budget's finest): the
+    /// coarsest threshold the back-end reaches
+    /// ([`haptic_core::CollisionBackend::threshold_reached`]), beyond which a coarser one
+    /// would cost the same and only misreport what the queries hold. A non-finite ceiling
+    /// changes nothing.
+    pub fn hold_at_most(&mut self, ceiling: Real) {
+        if ceiling.is_finite() {
+            self.threshold = self.threshold.min(ceiling).max(self.budget.min_threshold);
+        }
+    }
+
     /// Takes the measured cost (s) of the update made at [`ThresholdController::threshold`] and
     /// returns the next threshold. A non-finite or negative cost changes nothing.
     pub fn observe(&mut self, cost_s: Real) -> Real {
@@ -135,6 +149,29 @@ impl ThresholdController {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// A budget the back-end's coarsest threshold cannot meet holds the threshold at that one,
+    /// not at the budget's ceiling.
+    #[test]
+    fn a_back_end_that_coarsens_no_further_holds_the_threshold_at_its_coarsest() {
+        let budget = QueryBudget::new(1e-3).unwrap();
+        let mut c = ThresholdController::new(budget);
+        let coarsest = 0.027;
+        // The cost stops falling at the coarsest threshold: 4 ms, over the budget.
+        let cost = |t: Real| 4e-3 * (coarsest / t.min(coarsest)).sqrt();
+        for _ in 0..40 {
+            let t = c.threshold();
+            c.observe(cost(t));
+            c.hold_at_most(coarsest);
+            assert!(c.threshold() <= coarsest);
+        }
+        assert_eq!(c.threshold(), coarsest);
+        // A ceiling below the finest threshold holds it at the finest; a NaN changes nothing.
+        c.hold_at_most(1e-6);
+        assert_eq!(c.threshold(), budget.min_threshold);
+        c.hold_at_most(Real::NAN);
+        assert_eq!(c.threshold(), budget.min_threshold);
+    }
 
     /// With a cost `c / θ`, the threshold settles where the cost meets the budget.
     #[test]

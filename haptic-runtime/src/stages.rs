@@ -41,7 +41,9 @@ pub struct ContactUpdate {
     pub max_penetration_m: Real,
     /// Whether the broad phase found nothing near the tool (no further work was done).
     pub broad_phase_only: bool,
-    /// The error threshold the query used (fraction of the tool's bounding radius).
+    /// The error threshold the query held (fraction of the tool's bounding radius): the one
+    /// asked, or less where the back-end holds a tighter one
+    /// (`CollisionBackend::threshold_reached`).
     pub error_threshold: Real,
 }
 
@@ -218,6 +220,11 @@ impl<B: CollisionBackend, C: ContactModel> ContactStage<B, C> {
         if let (Ok(()), Some(b)) = (&result, &mut self.budget) {
             if out.raw_contact_count > 0 {
                 b.observe(started.elapsed().as_secs_f64());
+                let coarsest = QueryParams {
+                    error_threshold: b.budget().max_threshold,
+                    ..self.params
+                };
+                b.hold_at_most(self.backend.threshold_reached(&coarsest));
             }
         }
         result
@@ -237,7 +244,7 @@ impl<B: CollisionBackend, C: ContactModel> ContactStage<B, C> {
         self.seq += 1;
         out.seq = self.seq;
         out.query_time_s = time_s;
-        out.error_threshold = self.params.error_threshold;
+        out.error_threshold = self.backend.threshold_reached(&self.params);
         if self.raw.is_empty() {
             // Free space: no clustering, no penalty, no Jacobian.
             self.representatives.clear();

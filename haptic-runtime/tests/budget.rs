@@ -14,10 +14,13 @@ use haptic_runtime::{
     Summary,
 };
 
-/// The box on the floor, noting the threshold of every query and whether it found contacts.
+/// The box on the floor, noting the threshold of every query and whether it found contacts;
+/// with a `ceiling`, a back-end that holds no coarser threshold than that one (as
+/// `LodBackend` holds none above `δ / radius` under its default rule).
 struct Probe {
     inner: BoxOnFloor,
     seen: Arc<Mutex<Vec<(Real, bool)>>>,
+    ceiling: Option<Real>,
 }
 
 impl CollisionBackend for Probe {
@@ -27,6 +30,10 @@ impl CollisionBackend for Probe {
     }
     fn tool_bounding_radius_m(&self) -> Real {
         self.inner.tool_bounding_radius_m()
+    }
+    fn threshold_reached(&self, params: &QueryParams) -> Real {
+        self.ceiling
+            .map_or(params.error_threshold, |c| params.error_threshold.min(c))
     }
     fn query(
         &mut self,
@@ -55,6 +62,7 @@ fn free_space_does_not_move_the_threshold_and_records_say_which_was_used() {
     .backend(Probe {
         inner: BoxOnFloor::new(HALF_M),
         seen: seen.clone(),
+        ceiling: None,
     })
     .contact_model(PenaltyModel::new(PenaltyParams::default()).unwrap())
     .device(pressing_hand())
@@ -143,6 +151,41 @@ fn updates_that_cannot_fit_go_to_the_coarsest_threshold() {
     assert!(s.raw_contact_count_max > 0);
     assert_eq!(s.error_threshold_median, 0.1);
     assert_eq!(s.error_threshold_max, 0.1);
+}
+
+#[test]
+fn a_back_end_that_coarsens_no_further_holds_the_threshold_at_its_coarsest() {
+    // No update fits a nanosecond, but above 3 % the back-end's queries are all alike: the
+    // threshold climbs to 3 %, not to the budget's 10 %, and the updates report 3 %.
+    let seen = Arc::new(Mutex::new(Vec::new()));
+    let mut p = PipelineBuilder::new(
+        box_body(),
+        Pose::from_position(Vec3::new(0.0, 0.0, HALF_M + 0.01)),
+    )
+    .integrator(LinearizedBackwardEuler)
+    .backend(Probe {
+        inner: BoxOnFloor::new(HALF_M),
+        seen: seen.clone(),
+        ceiling: Some(0.03),
+    })
+    .contact_model(PenaltyModel::new(PenaltyParams::default()).unwrap())
+    .device(pressing_hand())
+    .config(PipelineConfig {
+        realtime_scheduling: false,
+        query_budget: Some(QueryBudget::new(1e-9).unwrap()),
+        ..PipelineConfig::default()
+    })
+    .build()
+    .unwrap();
+    let s = p
+        .run_virtual(0.5, ContactLatency::FixedRate { rate_hz: 500.0 }, |_, _| {})
+        .unwrap();
+    assert!(s.raw_contact_count_max > 0, "the box never touched");
+    let seen = seen.lock().unwrap().clone();
+    let asked = seen.iter().map(|s| s.0).fold(0.0, Real::max);
+    assert_eq!(asked, 0.03, "{seen:?}");
+    assert_eq!(seen.last().unwrap().0, 0.03);
+    assert_eq!(s.error_threshold_max, 0.03);
 }
 
 #[test]

@@ -344,6 +344,12 @@ impl CollisionBackend for AnyBackend {
                 .map_err(|e| AnyBackendError(e.to_string())),
         }
     }
+    fn threshold_reached(&self, params: &QueryParams) -> Real {
+        match self {
+            AnyBackend::Lod(b) => b.threshold_reached(params),
+            AnyBackend::Parry(b) => b.threshold_reached(params),
+        }
+    }
 }
 
 /// The twist that takes `a` at `t_a` to `b` at `t_b` (world frame; zero for a non-positive

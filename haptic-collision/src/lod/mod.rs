@@ -367,6 +367,17 @@ impl CollisionBackend for LodBackend {
         self.tool.radius_about_origin_m()
     }
 
+    /// `params.error_threshold`, or under a rule that caps `ε` at `δ` (the default,
+    /// [`StoppingRule::CoherenceBudget`], and [`StoppingRule::DeviationAndCoherence`]) at most
+    /// `δ / radius`, the threshold that cap stands for.
+    fn threshold_reached(&self, params: &QueryParams) -> Real {
+        self.stopping_rule.threshold_reached(
+            params.error_threshold,
+            self.tool_bounding_radius_m(),
+            params.delta_m,
+        )
+    }
+
     fn query(
         &mut self,
         tool_pose: &Pose,

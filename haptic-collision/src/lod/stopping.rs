@@ -105,6 +105,23 @@ impl StoppingRule {
         }
     }
 
+    /// The threshold a walk at `error_threshold` holds, for a tool of bounding radius
+    /// `radius_m` with the penalty reaching `delta_m`: `error_threshold`, or under a rule that
+    /// caps `ε` at `δ`, at most `δ / radius_m` ([`StoppingRule::epsilon_m`] over the radius).
+    pub(crate) fn threshold_reached(
+        self,
+        error_threshold: Real,
+        radius_m: Real,
+        delta_m: Real,
+    ) -> Real {
+        match self {
+            Self::DeviationAndCoherence | Self::CoherenceBudget if radius_m > 0.0 => {
+                error_threshold.min(delta_m / radius_m)
+            }
+            _ => error_threshold,
+        }
+    }
+
     /// Whether the regions written are refined until their bound on the direction error of
     /// their force is within the threshold of the net force (`refine.rs`).
     pub(crate) fn refines_regions(self) -> bool {
@@ -182,6 +199,37 @@ mod tests {
         assert_eq!(eps, delta);
         // As if the threshold were δ / r = 1 %.
         assert!((rule.min_coherence(eps, r) - 0.99).abs() < 1e-15);
+    }
+
+    #[test]
+    fn the_threshold_reached_is_the_one_epsilon_stands_for() {
+        let (r, delta) = (0.04, 1e-3);
+        for rule in StoppingRule::ALL {
+            for threshold in [0.0, 0.004, 0.025, 0.05, 0.1] {
+                let reached = rule.threshold_reached(threshold, r, delta);
+                let eps = rule.epsilon_m(threshold, r, delta);
+                assert!((reached * r - eps).abs() <= 1e-15, "{rule} {threshold}");
+                assert!(reached <= threshold);
+            }
+        }
+        // Below δ / r = 2.5 % every rule holds the threshold asked; above it only the paper's.
+        assert_eq!(
+            StoppingRule::CoherenceBudget.threshold_reached(0.01, r, delta),
+            0.01
+        );
+        assert_eq!(
+            StoppingRule::CoherenceBudget.threshold_reached(0.1, r, delta),
+            delta / r
+        );
+        assert_eq!(
+            StoppingRule::Deviation.threshold_reached(0.1, r, delta),
+            0.1
+        );
+        // A tool without extent: the threshold asked.
+        assert_eq!(
+            StoppingRule::CoherenceBudget.threshold_reached(0.1, 0.0, delta),
+            0.1
+        );
     }
 
     #[test]

@@ -1158,3 +1158,21 @@ fn pieces_found_beside_each_other_have_no_region_and_no_nearer_approach() {
         "{found_beside} beside, {with_region} with a region"
     );
 }
+
+/// The threshold a query holds: the one asked under the paper's rule; at most `δ / radius`
+/// under the default rule, whose `ε` is capped at `δ`.
+#[test]
+fn the_threshold_reached_is_capped_where_the_rule_caps_epsilon() {
+    let box_mesh = cuboid(Vec3::new(0.01, 0.01, 0.01));
+    let obstacles = vec![(cuboid(Vec3::new(0.05, 0.05, 0.01)), Pose::identity())];
+    let lod = LodBackend::new(&box_mesh, &obstacles).unwrap();
+    let r = lod.tool_bounding_radius_m();
+    let delta = 1e-3;
+    let at = |threshold| QueryParams::new(delta, threshold).unwrap();
+    assert_eq!(lod.stopping_rule(), StoppingRule::CoherenceBudget);
+    assert_eq!(lod.threshold_reached(&at(0.0)), 0.0);
+    assert_eq!(lod.threshold_reached(&at(0.5 * delta / r)), 0.5 * delta / r);
+    assert_eq!(lod.threshold_reached(&at(0.5)), delta / r);
+    let paper = lod.with_stopping_rule(StoppingRule::Deviation);
+    assert_eq!(paper.threshold_reached(&at(0.5)), 0.5);
+}

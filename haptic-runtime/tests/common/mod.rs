@@ -54,6 +54,9 @@ impl<B: CollisionBackend> CollisionBackend for Misbehaving<B> {
     fn tool_bounding_radius_m(&self) -> Real {
         self.inner.tool_bounding_radius_m()
     }
+    fn threshold_reached(&self, params: &QueryParams) -> Real {
+        self.inner.threshold_reached(params)
+    }
     fn query(
         &mut self,
         pose: &Pose,
