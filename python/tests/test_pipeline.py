@@ -414,12 +414,15 @@ def test_a_time_budget_picks_the_threshold(make_box):
     common = dict(tool=haptic.Mesh(v, t), mass_kg=0.1, tool_pose=poses[0],
                   obstacles=[(haptic.Mesh(slab_v, slab_t), [0, 0, 0, 1, 0, 0, 0])],
                   waypoints=(times, poses), error_threshold=0.05)
-    # A nanosecond fits no update: the threshold climbs to the budget's ceiling (10 %), not the
-    # scene's 5 %.
+    # A nanosecond fits no update: the threshold climbs past the scene's 5 % to the coarsest the
+    # back-end reaches: under the default rule, whose pieces never stray beyond delta, delta over
+    # the cube's radius (1 mm / 17.3 mm); under the paper's rule, the budget's ceiling (10 %).
     scene = haptic.Scene.from_parts(time_budget_s=1e-9, **common)
     run = haptic.run_virtual(scene, 0.5)
     assert run.summary["raw_contact_count_max"] > 0
-    assert run.summary["error_threshold_max"] == pytest.approx(0.1)
+    assert run.summary["error_threshold_max"] == pytest.approx(1e-3 / (0.01 * np.sqrt(3.0)))
+    paper = haptic.Scene.from_parts(time_budget_s=1e-9, stopping_rule="deviation", **common)
+    assert haptic.run_virtual(paper, 0.5).summary["error_threshold_max"] == pytest.approx(0.1)
     # Without a budget, the scene's threshold.
     fixed = haptic.run_virtual(haptic.Scene.from_parts(**common), 0.5)
     assert fixed.summary["error_threshold_median"] == pytest.approx(0.05)
