@@ -343,6 +343,16 @@ impl PyLodBackend {
     fn tool_bounding_radius_m(&self) -> f64 {
         self.radius_m
     }
+
+    /// The error threshold a query within `delta` (m) at `threshold` holds: `threshold`, or at
+    /// most `delta` over the tool's bounding radius under the rules that cap a piece's
+    /// deviation at `delta` (`"coherence-budget"`, the default, and `"coherence"`)
+    /// (`CollisionBackend::threshold_reached`).
+    fn threshold_reached(&self, delta: f64, threshold: f64) -> PyResult<f64> {
+        let params = QueryParams::new(delta, threshold).map_err(|e| input("threshold", e))?;
+        let guard = self.inner.lock().unwrap_or_else(|p| p.into_inner());
+        Ok(guard.0.threshold_reached(&params))
+    }
 }
 
 /// The parry3d back-end (exact triangle-mesh contacts; the threshold is ignored), built like

@@ -406,6 +406,16 @@ def test_stopping_rule(jaws_meshes, jaws_lod, tmp_path):
     coarse, _ = paper.query(pose, delta=DELTA, threshold=0.025)
     assert np.array_equal(default.p_a, budgeted.p_a)
     assert len(default.area) != len(coarse.area) or not np.array_equal(default.area, coarse.area)
+    # The threshold a query holds: the cap at delta binds above delta / radius, except under
+    # the paper's rule.
+    cap = DELTA / jaws_lod.tool_bounding_radius_m
+    assert jaws_lod.threshold_reached(DELTA, 0.5 * cap) == 0.5 * cap
+    assert jaws_lod.threshold_reached(DELTA, 0.1) == pytest.approx(cap, rel=1e-12)
+    assert coherent.threshold_reached(DELTA, 0.1) == pytest.approx(cap, rel=1e-12)
+    assert paper.threshold_reached(DELTA, 0.1) == 0.1
+    with pytest.raises(haptic.InputError) as e:
+        jaws_lod.threshold_reached(DELTA, -1.0)
+    assert e.value.field == "threshold"
     with pytest.raises(haptic.InputError) as e:
         haptic.LodBackend(upper, [(lower, IDENTITY)], stopping_rule="normals")
     assert e.value.field == "stopping_rule"

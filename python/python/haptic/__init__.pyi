@@ -357,6 +357,17 @@ class LodBackend:
     @property
     def tool_bounding_radius_m(self) -> float:
         """The tool's bounding radius about its body origin (m): the unit of ``threshold``."""
+    def threshold_reached(self, delta: float, threshold: float) -> float:
+        """The error threshold a query within ``delta`` (m) at ``threshold`` holds:
+        ``threshold``, or at most ``delta / tool_bounding_radius_m`` under the rules that cap a
+        piece's deviation at ``delta`` (``"coherence-budget"``, the default, and
+        ``"coherence"``): above it a coarser threshold changes nothing. A contact update reports
+        this threshold.
+
+        Raises:
+            InputError: a ``delta`` that is not positive and finite, or a negative or
+                non-finite ``threshold`` (``.field == "threshold"``), as :meth:`query`.
+        """
 
 class ParryBackend:
     """The parry3d back-end: exact triangle-mesh contact manifolds, built like
