@@ -112,13 +112,15 @@ fn free_space_does_not_move_the_threshold_and_records_say_which_was_used() {
     assert_eq!(recorded, queried);
 }
 
-fn run_with(budget_s: f64) -> Summary {
+/// The box pressed onto the floor for half a second, through `backend`, with a budget of
+/// `budget_s` an update.
+fn run_with<B: CollisionBackend + Send + 'static>(backend: B, budget_s: f64) -> Summary {
     let mut p = PipelineBuilder::new(
         box_body(),
         Pose::from_position(Vec3::new(0.0, 0.0, HALF_M + 0.01)),
     )
     .integrator(LinearizedBackwardEuler)
-    .backend(BoxOnFloor::new(HALF_M))
+    .backend(backend)
     .contact_model(PenaltyModel::new(PenaltyParams::default()).unwrap())
     .device(pressing_hand())
     .config(PipelineConfig {
@@ -135,7 +137,7 @@ fn run_with(budget_s: f64) -> Summary {
 #[test]
 fn cheap_updates_stay_at_the_finest_threshold() {
     // The box's query takes microseconds: a second's budget is never reached.
-    let s = run_with(1.0);
+    let s = run_with(BoxOnFloor::new(HALF_M), 1.0);
     assert!(
         s.raw_contact_count_max > 0,
         "the box never touched the floor"
@@ -147,7 +149,7 @@ fn cheap_updates_stay_at_the_finest_threshold() {
 #[test]
 fn updates_that_cannot_fit_go_to_the_coarsest_threshold() {
     // A nanosecond is less than any update: the threshold climbs to its ceiling.
-    let s = run_with(1e-9);
+    let s = run_with(BoxOnFloor::new(HALF_M), 1e-9);
     assert!(s.raw_contact_count_max > 0);
     assert_eq!(s.error_threshold_median, 0.1);
     assert_eq!(s.error_threshold_max, 0.1);
@@ -158,28 +160,12 @@ fn a_back_end_that_coarsens_no_further_holds_the_threshold_at_its_coarsest() {
     // No update fits a nanosecond, but above 3 % the back-end's queries are all alike: the
     // threshold climbs to 3 %, not to the budget's 10 %, and the updates report 3 %.
     let seen = Arc::new(Mutex::new(Vec::new()));
-    let mut p = PipelineBuilder::new(
-        box_body(),
-        Pose::from_position(Vec3::new(0.0, 0.0, HALF_M + 0.01)),
-    )
-    .integrator(LinearizedBackwardEuler)
-    .backend(Probe {
+    let probe = Probe {
         inner: BoxOnFloor::new(HALF_M),
         seen: seen.clone(),
         ceiling: Some(0.03),
-    })
-    .contact_model(PenaltyModel::new(PenaltyParams::default()).unwrap())
-    .device(pressing_hand())
-    .config(PipelineConfig {
-        realtime_scheduling: false,
-        query_budget: Some(QueryBudget::new(1e-9).unwrap()),
-        ..PipelineConfig::default()
-    })
-    .build()
-    .unwrap();
-    let s = p
-        .run_virtual(0.5, ContactLatency::FixedRate { rate_hz: 500.0 }, |_, _| {})
-        .unwrap();
+    };
+    let s = run_with(probe, 1e-9);
     assert!(s.raw_contact_count_max > 0, "the box never touched");
     let seen = seen.lock().unwrap().clone();
     let asked = seen.iter().map(|s| s.0).fold(0.0, Real::max);
