@@ -92,6 +92,13 @@ pub(crate) struct RegionContact {
 }
 
 impl RegionContact {
+    /// Whether the pieces lie beyond `delta_m` of each other, within reach only through the
+    /// surfaces they stand for: the depth is held at `−δ` and the weight `∫g` the surfaces give
+    /// is next to nothing, whatever those surfaces push where they come within `δ`.
+    pub fn pieces_beyond(&self, delta_m: Real) -> bool {
+        self.pieces_apart && self.depth_m <= -delta_m
+    }
+
     /// As a pair result against an obstacle polygon of unit normal `nb`: `n = −n_b` (out of
     /// the tool), `p_b = p_a − d n` (on the obstacle polygon's plane, shifted by any offset).
     pub fn pair_contact(&self, nb: &Vec3) -> PairContact {
@@ -442,6 +449,35 @@ mod tests {
             }
         }
         s
+    }
+
+    /// A tool square parallel to a floor square, its surface spread 0.6 mm about it: 0.5 mm up,
+    /// the pieces lie apart but within δ, their depth held at their distance; 1.2 mm up, beyond
+    /// δ, within reach only through the spread, the depth held at `−δ` and the weight next to
+    /// nothing.
+    #[test]
+    fn pieces_beyond_delta_are_told_from_pieces_apart_within_it() {
+        let offset = HeightOffset {
+            mean_m: 0.0,
+            half_width_m: 0.6e-3,
+        };
+        let floor = grid(1, 0.0, 0.01, false, &|v| v);
+        let region = |h: Real| {
+            let tool = grid(1, 0.0, 0.01, true, &|v| v + Vec3::new(0.0, 0.0, h));
+            let nb = Vec3::z();
+            pair_region(&tool[0], &floor[0], &nb, DELTA, offset)
+                .region
+                .expect("within reach")
+        };
+        let within = region(0.5e-3);
+        assert!(within.pieces_apart && !within.pieces_beyond(DELTA));
+        assert_eq!(within.depth_m, -0.5e-3);
+        let beyond = region(1.2e-3);
+        assert!(beyond.pieces_apart && beyond.pieces_beyond(DELTA));
+        assert_eq!(beyond.depth_m, -DELTA);
+        // Crossing pieces are neither.
+        let crossing = region(-0.2e-3);
+        assert!(!crossing.pieces_apart && !crossing.pieces_beyond(DELTA));
     }
 
     /// A tilted tool square over a floor, partly beyond δ and partly below the floor: the same

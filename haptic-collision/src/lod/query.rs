@@ -424,7 +424,7 @@ pub(crate) fn walk_from_stack(
                         area_m2 * gap_weight_m(pc.depth, delta),
                         coherence,
                         &pc.n,
-                        r.pieces_apart && coherence < walk.min_coherence,
+                        r.pieces_beyond(delta) && coherence < walk.min_coherence,
                     ));
                 }
                 frames.emit(&pc, fa, fb, area_m2, out)?;

@@ -67,9 +67,9 @@ pub enum StoppingRule {
     /// regions whose bound `w (1 − c)` on their force's direction error is largest are refined
     /// under the coherence condition until the bounds left sum to at most the threshold's share
     /// of the net force (`ε / tool radius` of `|Σ w n|`, per obstacle). A region whose pieces lie
-    /// apart (nearer only through the surfaces they stand for) and are less coherent than the
-    /// condition asks is refined whatever the budget: its weight says little of what those
-    /// surfaces push. Nearly as accurate as [`StoppingRule::DeviationAndCoherence`] where the
+    /// beyond `δ` of each other (within reach only through the surfaces they stand for) and are
+    /// less coherent than the condition asks is refined whatever the budget: its weight, next to
+    /// nothing, says nothing of what those surfaces push. Nearly as accurate as [`StoppingRule::DeviationAndCoherence`] where the
     /// net force is not a small residual of opposed ones, at much less of its cost where many
     /// small coarse regions touch (the jaws). The default: of the three, the one whose error
     /// at a threshold depends least on the scene (`docs/decisions.md`, "Stopping rule").
