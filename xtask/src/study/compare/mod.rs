@@ -19,9 +19,9 @@
 //! the sum of its queries' costs, the haptic stage's the sum of its steps'.
 //!
 //! **Ranking**: stable configurations within the error budget first, fastest first (total
-//! seconds per simulated second; times within 10 % are a tie, decided by the error); then the
-//! other stable ones by error; then the unstable ones. parry has no error threshold: it runs once
-//! per combination of the other axes. A reference that is not stable, or that sends no force,
+//! seconds per simulated second; times in the same 10 % step are a tie, decided by the error);
+//! then the other stable ones by error; then the unstable ones. parry has no error threshold: it
+//! runs once per combination of the other axes. A reference that is not stable, or that sends no force,
 //! stops the study with an error.
 //!
 //! Output: `DIR/compare.json`, `DIR/compare.md`, `DIR/compare-work-precision.svg` (run time
@@ -283,24 +283,8 @@ pub fn run(args: &CompareArgs) -> anyhow::Result<()> {
         forces_by_row.push(m.forces);
     }
     // Rank: within budget by speed, then stable by error, then unstable by error.
-    let mut order: Vec<usize> = (0..rows.len()).collect();
-    order.sort_by(|&a, &b| {
-        let (ra, rb) = (&rows[a], &rows[b]);
-        let class = |r: &Row| u8::from(!r.within_error_budget) + u8::from(!r.stable);
-        let error = |r: &Row| r.force_error_rel.unwrap_or(Real::INFINITY);
-        class(ra).cmp(&class(rb)).then_with(|| {
-            let (ta, tb) = (
-                ra.seconds_per_simulated_second,
-                rb.seconds_per_simulated_second,
-            );
-            // Times within 10 % of each other are a tie on this machine: the error decides.
-            if ra.within_error_budget && (ta - tb).abs() > 0.1 * ta.min(tb) {
-                ta.total_cmp(&tb)
-            } else {
-                error(ra).total_cmp(&error(rb))
-            }
-        })
-    });
+    let keys: Vec<RankKey> = rows.iter().map(RankKey::of).collect();
+    let order = rank_order(&keys);
     for (rank, &i) in order.iter().enumerate() {
         rows[i].rank = rank + 1;
     }
@@ -500,4 +484,104 @@ fn plots(
         &lines,
     )?;
     Ok(())
+}
+
+/// Where a configuration ranks (see [`rank_order`]).
+#[derive(Debug, Clone, Copy, PartialEq)]
+struct RankKey {
+    /// 0 within the error budget, 1 stable, 2 unstable.
+    class: u8,
+    /// Within the budget, the run time in steps of 10 % (`⌊ln t / ln 1.1⌋`); 0 otherwise.
+    time_step: Real,
+    /// The force error (infinite where there is none).
+    error: Real,
+}
+
+impl RankKey {
+    fn of(r: &Row) -> Self {
+        Self::new(
+            r.within_error_budget,
+            r.stable,
+            r.seconds_per_simulated_second,
+            r.force_error_rel,
+        )
+    }
+
+    fn new(within_budget: bool, stable: bool, seconds: Real, error: Option<Real>) -> Self {
+        Self {
+            class: u8::from(!within_budget) + u8::from(!stable),
+            time_step: if within_budget {
+                (seconds.ln() / 1.1_f64.ln()).floor()
+            } else {
+                0.0
+            },
+            error: error.unwrap_or(Real::INFINITY),
+        }
+    }
+}
+
+/// The configurations in rank order: within the error budget by speed, times in the same 10 %
+/// step being a tie on this machine that the error decides; then the stable ones by error; then
+/// the unstable ones by error. Times are compared by step, not as "within 10 % of each other",
+/// which is not transitive (1.0, 1.08 and 1.16 s): a sort needs a total order, and panics
+/// without one.
+fn rank_order(keys: &[RankKey]) -> Vec<usize> {
+    let mut order: Vec<usize> = (0..keys.len()).collect();
+    order.sort_by(|&a, &b| {
+        let (ka, kb) = (&keys[a], &keys[b]);
+        ka.class
+            .cmp(&kb.class)
+            .then(ka.time_step.total_cmp(&kb.time_step))
+            .then(ka.error.total_cmp(&kb.error))
+    });
+    order
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn runs_within_budget_rank_by_time_step_then_error_and_the_rest_by_error() {
+        let key = RankKey::new;
+        let keys = [
+            key(false, false, 0.1, Some(0.01)), // unstable: last
+            key(false, true, 0.1, Some(0.3)),   // stable, outside the budget
+            key(true, true, 2.0, Some(0.01)),   // slower step
+            key(true, true, 1.01, Some(0.04)),  // same step as the next: the error decides
+            key(true, true, 1.02, Some(0.02)),
+            key(false, true, 9.0, Some(0.2)),
+        ];
+        assert_eq!(rank_order(&keys), [4, 3, 2, 5, 1, 0]);
+    }
+
+    #[test]
+    fn times_that_are_each_within_ten_percent_of_the_next_still_sort() {
+        // 1.00, 1.03, 1.06, ...: each within 10 % of its neighbours, not of every other one.
+        // Comparing pairs "within 10 %" gave no total order and the sort panicked.
+        let keys: Vec<RankKey> = (0..60)
+            .map(|i| {
+                let t = 1.03_f64.powi(i);
+                let error = ((i * 37) % 11) as Real * 0.01;
+                RankKey::new(true, true, t, Some(error))
+            })
+            .collect();
+        let order = rank_order(&keys);
+        for w in order.windows(2) {
+            let (a, b) = (&keys[w[0]], &keys[w[1]]);
+            assert!(
+                a.time_step < b.time_step || (a.time_step == b.time_step && a.error <= b.error),
+                "{a:?} before {b:?}"
+            );
+        }
+        // Any order of the same keys ranks them the same way.
+        let reversed: Vec<RankKey> = keys.iter().rev().copied().collect();
+        let back: Vec<usize> = rank_order(&reversed)
+            .into_iter()
+            .map(|i| keys.len() - 1 - i)
+            .collect();
+        let same_keys =
+            |x: &[usize], y: &[usize]| x.iter().zip(y).all(|(&i, &j)| keys[i] == keys[j]);
+        assert!(same_keys(&order, &back));
+    }
 }
