@@ -348,10 +348,13 @@ impl PyLodBackend {
     /// most `delta` over the tool's bounding radius under the rules that cap a piece's
     /// deviation at `delta` (`"coherence-budget"`, the default, and `"coherence"`)
     /// (`CollisionBackend::threshold_reached`).
-    fn threshold_reached(&self, delta: f64, threshold: f64) -> PyResult<f64> {
+    fn threshold_reached(&self, py: Python<'_>, delta: f64, threshold: f64) -> PyResult<f64> {
         let params = QueryParams::new(delta, threshold).map_err(|e| input("threshold", e))?;
-        let guard = self.inner.lock().unwrap_or_else(|p| p.into_inner());
-        Ok(guard.0.threshold_reached(&params))
+        // Without the GIL while another thread's query holds the back-end, as `query` waits.
+        Ok(py.detach(|| {
+            let guard = self.inner.lock().unwrap_or_else(|p| p.into_inner());
+            guard.0.threshold_reached(&params)
+        }))
     }
 }
 

@@ -69,10 +69,11 @@ pub enum StoppingRule {
     /// of the net force (`ε / tool radius` of `|Σ w n|`, per obstacle). A region whose pieces lie
     /// beyond `δ` of each other (within reach only through the surfaces they stand for) and are
     /// less coherent than the condition asks is refined whatever the budget: its weight, next to
-    /// nothing, says nothing of what those surfaces push. Nearly as accurate as [`StoppingRule::DeviationAndCoherence`] where the
-    /// net force is not a small residual of opposed ones, at much less of its cost where many
-    /// small coarse regions touch (the jaws). The default: of the three, the one whose error
-    /// at a threshold depends least on the scene (`docs/decisions.md`, "Stopping rule").
+    /// nothing, says nothing of what those surfaces push. Nearly as accurate as
+    /// [`StoppingRule::DeviationAndCoherence`] where the net force is not a small residual of
+    /// opposed ones, at much less of its cost where many small coarse regions touch (the jaws).
+    /// The default: of the three, the one whose error at a threshold depends least on the
+    /// scene (`docs/decisions.md`, "Stopping rule").
     #[default]
     CoherenceBudget,
 }
@@ -99,10 +100,16 @@ impl StoppingRule {
     /// bounding radius `radius_m`, with the penalty reaching `delta_m`.
     pub(crate) fn epsilon_m(self, error_threshold: Real, radius_m: Real, delta_m: Real) -> Real {
         let epsilon_m = error_threshold * radius_m;
-        match self {
-            Self::Deviation => epsilon_m,
-            Self::DeviationAndCoherence | Self::CoherenceBudget => epsilon_m.min(delta_m),
+        if self.caps_epsilon_at_delta() {
+            epsilon_m.min(delta_m)
+        } else {
+            epsilon_m
         }
+    }
+
+    /// Whether the walk's `ε` is capped at `δ` (every rule but the paper's).
+    fn caps_epsilon_at_delta(self) -> bool {
+        matches!(self, Self::DeviationAndCoherence | Self::CoherenceBudget)
     }
 
     /// The threshold a walk at `error_threshold` holds, for a tool of bounding radius
@@ -114,11 +121,10 @@ impl StoppingRule {
         radius_m: Real,
         delta_m: Real,
     ) -> Real {
-        match self {
-            Self::DeviationAndCoherence | Self::CoherenceBudget if radius_m > 0.0 => {
-                error_threshold.min(delta_m / radius_m)
-            }
-            _ => error_threshold,
+        if self.caps_epsilon_at_delta() && radius_m > 0.0 {
+            error_threshold.min(delta_m / radius_m)
+        } else {
+            error_threshold
         }
     }
 
