@@ -7,8 +7,9 @@
 //! penalty weighs it by the gap `g = d + δ = δ − h` (eq. 28's weight per unit area), for
 //! `−δ ≤ h ≤ δ`. The region's contact keeps what the clustering reads of the integral over the
 //! region: `∫g`, `∫g x` and `∫g (g − δ)`, that is the weight, its centroid and its weighted mean
-//! depth (area `(∫g)²/∫g²`, depth `∫g²/∫g − δ`, at the `g`-weighted centroid). They are exact
-//! (a quadrature of degree 5 on the fan of the clipped polygon, `g` being linear).
+//! depth (area `(∫g)²/∫g²`, depth `∫g²/∫g − δ`, at the `g`-weighted centroid). They are exact:
+//! closed forms on the fan of the clipped polygon where `g` is linear, a quadrature of degree 5
+//! within the spread's band at the top (`Sums`).
 //!
 //! Because the prisms of neighbouring obstacle triangles only share walls, and a tool polygon's
 //! integrals add up over any partition of it, the sums over triangle pairs do not depend on how
@@ -287,8 +288,13 @@ impl Weight {
     }
 }
 
-/// `∫g`, `∫g x` and `∫g²` over polygons, by a quadrature exact for polynomials of degree 5
-/// (Dunavant's seven points) on each triangle of their fans.
+/// `∫g`, `∫g x` and `∫g²` over polygons, exact. The spread weight is a polynomial of the height
+/// on either side of the knee `h = δ − s` ([`Weight`]): below it `E[w] = δ − h` and
+/// `E[w²] = (δ − h)² + s²/3`, above it (within `s` of the top) `E[w] = q²/4s` and
+/// `E[w²] = q³/6s`, `q = δ + s − h`. The polygon is cut at the knee; the part below, where the
+/// weight is linear (all of it without a spread), is summed in closed form from each fan
+/// triangle's vertices, and the band above by a quadrature exact for polynomials of degree 5
+/// (Dunavant's seven points).
 #[derive(Debug, Default)]
 struct Sums {
     g: Real,
@@ -312,19 +318,66 @@ const DUNAVANT5: [(Real, Real, Real); 3] = [
     ),
 ];
 
+/// The corners of a polygon's fan triangles, `(v0, v_k, v_k+1)`, with the triangle's area
+/// (degenerate ones left out).
+fn fan(p: &Poly) -> impl Iterator<Item = ([Vec3; 3], Real)> + '_ {
+    let v = |k: usize| Vec3::new(p.0[k][0], p.0[k][1], p.0[k][2]);
+    let v0 = v(0);
+    (1..p.1.max(2) - 1).filter_map(move |k| {
+        let (v1, v2) = (v(k), v(k + 1));
+        let area = 0.5 * (v1 - v0).cross(&(v2 - v0)).norm();
+        (area > 0.0).then_some(([v0, v1, v2], area))
+    })
+}
+
 impl Sums {
     fn add(&mut self, p: &Poly, weight: &Weight) {
         if p.1 < 3 {
             return;
         }
-        let v = |k: usize| Vec3::new(p.0[k][0], p.0[k][1], p.0[k][2]);
-        let v0 = v(0);
-        for k in 1..p.1 - 1 {
-            let (v1, v2) = (v(k), v(k + 1));
-            let area = 0.5 * (v1 - v0).cross(&(v2 - v0)).norm();
-            if area.is_nan() || area <= 0.0 {
-                continue;
-            }
+        if weight.s <= 0.0 {
+            self.add_linear(p, weight.delta, 0.0);
+            return;
+        }
+        let knee = weight.delta - weight.s;
+        let mut part: Poly = ([[0.0; 3]; MAX_CLIPPED], 0);
+        if !clip(p, &mut part, |x| knee - x[2]) {
+            // All of it below the knee.
+            self.add_linear(p, weight.delta, weight.s);
+            return;
+        }
+        self.add_linear(&part, weight.delta, weight.s);
+        if clip(p, &mut part, |x| x[2] - knee) {
+            self.add_band(&part, weight);
+        } else {
+            self.add_band(p, weight);
+        }
+    }
+
+    /// Below the knee: `g = δ − h` linear, so `∫g = A ḡ`, `∫g x = A/12 (Σ gᵢxᵢ + Σgᵢ Σxᵢ)`
+    /// and `∫g² = A/12 (Σ gᵢ² + (Σ gᵢ)²)` on each fan triangle, and the spread adds `s²/3`
+    /// to `E[w²]` everywhere.
+    fn add_linear(&mut self, p: &Poly, delta: Real, s: Real) {
+        if p.1 < 3 {
+            return;
+        }
+        let spread2 = s * s / 3.0;
+        for (v, area) in fan(p) {
+            let g = v.map(|x| delta - x.z);
+            let sg = g[0] + g[1] + g[2];
+            let k = area / 12.0;
+            self.g += area * sg / 3.0;
+            self.gx += (v[0] * g[0] + v[1] * g[1] + v[2] * g[2] + (v[0] + v[1] + v[2]) * sg) * k;
+            self.g2 += (g[0] * g[0] + g[1] * g[1] + g[2] * g[2] + sg * sg) * k + area * spread2;
+        }
+    }
+
+    /// Within `s` of the top: a polynomial of degree 3 in the height, by the quadrature.
+    fn add_band(&mut self, p: &Poly, weight: &Weight) {
+        if p.1 < 3 {
+            return;
+        }
+        for ([v0, v1, v2], area) in fan(p) {
             let mut at = |x: Vec3, wt: Real| {
                 let (g, g2) = weight.at(x.z);
                 self.g += area * wt * g;
@@ -526,6 +579,55 @@ mod tests {
             let (gs, g2s) = weight_by_sum(DELTA, s, h);
             prop_assert!((g - gs).abs() < 1e-7 * DELTA, "{g} {gs}");
             prop_assert!((g2 - g2s).abs() < 1e-7 * DELTA * DELTA, "{g2} {g2s}");
+        }
+
+        /// The closed forms and the band's quadrature against the spread weight summed over a
+        /// fine grid of a triangle that crosses the knee, the top of the band or neither.
+        #[test]
+        fn polygon_sums_match_the_spread_weight_summed(
+            x in prop::array::uniform6(-2e-3..2e-3f64),
+            h in prop::array::uniform3(0.0..1.0f64),
+            s in prop_oneof![Just(0.0), 1e-5..3e-3f64],
+        ) {
+            // Heights in `[−2δ, δ + s]`: below the band's top, where the weight ends.
+            let h = h.map(|t| -2.0 * DELTA + t * (3.0 * DELTA + s));
+            let v = [
+                Vec3::new(x[0], x[1], h[0]),
+                Vec3::new(x[2], x[3], h[1]),
+                Vec3::new(x[4], x[5], h[2]),
+            ];
+            let area = 0.5 * (v[1] - v[0]).cross(&(v[2] - v[0])).norm();
+            prop_assume!(area > 1e-8);
+            let mut poly: Poly = ([[0.0; 3]; MAX_CLIPPED], 3);
+            for (p, q) in poly.0.iter_mut().zip(&v) {
+                *p = [q.x, q.y, q.z];
+            }
+            let weight = Weight::new(DELTA, s);
+            let mut sums = Sums::default();
+            sums.add(&poly, &weight);
+            let n = 300;
+            let (mut g, mut gx, mut g2) = (0.0, Vec3::zeros(), 0.0);
+            let cell = area / (n * n) as Real;
+            for i in 0..n {
+                for j in 0..n - i {
+                    for (a, b, up) in [(i as Real + 1.0 / 3.0, j as Real + 1.0 / 3.0, true),
+                                       (i as Real + 2.0 / 3.0, j as Real + 2.0 / 3.0, false)] {
+                        if !up && i + j + 1 >= n {
+                            continue;
+                        }
+                        let p = v[0] + (v[1] - v[0]) * (a / n as Real) + (v[2] - v[0]) * (b / n as Real);
+                        // `s = 0`: the weight continued linearly, as the clipped polygon has it.
+                        let (w, w2) = if s > 0.0 { weight.at(p.z) } else { (DELTA - p.z, (DELTA - p.z).powi(2)) };
+                        g += w * cell;
+                        gx += p * (w * cell);
+                        g2 += w2 * cell;
+                    }
+                }
+            }
+            let scale = area * DELTA;
+            prop_assert!((sums.g - g).abs() < 1e-4 * scale, "{} {g}", sums.g);
+            prop_assert!((sums.gx - gx).norm() < 1e-4 * scale * 4e-3, "{} {gx}", sums.gx);
+            prop_assert!((sums.g2 - g2).abs() < 1e-4 * scale * DELTA, "{} {g2}", sums.g2);
         }
 
         /// Against the integral summed over a fine grid of points of the tool triangle: the
