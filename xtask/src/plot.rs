@@ -185,6 +185,36 @@ fn label_dx(chart: &Chart<'_>, x0: f64, x1: f64, x: f64, text: &str) -> i32 {
     }
 }
 
+/// A point label's box in pixels: left, top, right, bottom.
+type LabelBox = (i32, i32, i32, i32);
+
+/// A point label's height in pixels (13 px text).
+const LABEL_PX: i32 = 13;
+
+/// Where a point's label goes, in pixels from the point at `at` (pixels): `dx` to the side
+/// ([`label_dx`]) and above the point, or where that box would overlap a label already in
+/// `placed`, the first of below it, further above and further below that overlaps none (above,
+/// if every one does). Its box joins `placed`. Two thresholds whose points lie a few pixels
+/// apart (the jaws at 2.5 % and 5 %, both capped at `δ`) keep readable labels.
+fn place_label(at: (i32, i32), dx: i32, text: &str, placed: &mut Vec<LabelBox>) -> (i32, i32) {
+    let width = (7.2 * text.chars().count() as f64).ceil() as i32;
+    let boxed = |dy: i32| {
+        let (left, top) = (at.0 + dx, at.1 + dy);
+        (left, top, left + width, top + LABEL_PX)
+    };
+    let overlaps = |b: &LabelBox| {
+        placed
+            .iter()
+            .any(|p| b.0 < p.2 && p.0 < b.2 && b.1 < p.3 && p.1 < b.3)
+    };
+    let dy = [-16, 4, -30, 18]
+        .into_iter()
+        .find(|&dy| !overlaps(&boxed(dy)))
+        .unwrap_or(-16);
+    placed.push(boxed(dy));
+    (dx, dy)
+}
+
 /// Where on the plot `v` (within `lo..hi`) falls, from 0 to 1, along an axis of `scale`.
 fn fraction(scale: Scale, lo: f64, hi: f64, v: f64) -> f64 {
     match scale {
@@ -262,6 +292,7 @@ pub fn line_chart(path: &Path, chart: &Chart<'_>, series: &[Series]) -> anyhow::
                 .axis_desc_style(("sans-serif", 16))
                 .draw()
                 .map_err(|e| anyhow::anyhow!("{e}"))?;
+            let mut placed: Vec<LabelBox> = Vec::new();
             for (i, s) in series.iter().enumerate() {
                 let color = PALETTE[i % PALETTE.len()];
                 let pts: Vec<(f64, f64)> = s
@@ -284,19 +315,24 @@ pub fn line_chart(path: &Path, chart: &Chart<'_>, series: &[Series]) -> anyhow::
                         .legend(move |(x, y)| Circle::new((x + 10, y), 4, color.filled()));
                 }
                 if !s.point_labels.is_empty() {
-                    let labelled = s
+                    let labelled: Vec<((f64, f64), (i32, i32), &String)> = s
                         .points
                         .iter()
                         .zip(&s.point_labels)
-                        .filter(|(p, _)| keep(chart.x_scale, p.0) && keep(chart.y_scale, p.1));
-                    ctx.draw_series(labelled.map(|(p, text)| {
-                        EmptyElement::at(*p)
-                            + Circle::new((0, 0), 4, color.filled())
-                            + Text::new(
-                                text.clone(),
-                                (label_dx(chart, x0, x1, p.0, text), -16),
-                                ("sans-serif", 13),
+                        .filter(|(p, _)| keep(chart.x_scale, p.0) && keep(chart.y_scale, p.1))
+                        .map(|(p, text)| {
+                            let dx = label_dx(chart, x0, x1, p.0, text);
+                            (
+                                *p,
+                                place_label(ctx.backend_coord(p), dx, text, &mut placed),
+                                text,
                             )
+                        })
+                        .collect();
+                    ctx.draw_series(labelled.into_iter().map(|(p, offset, text)| {
+                        EmptyElement::at(p)
+                            + Circle::new((0, 0), 4, color.filled())
+                            + Text::new(text.clone(), offset, ("sans-serif", LABEL_PX))
                     }))
                     .map_err(|e| anyhow::anyhow!("{e}"))?;
                 }
@@ -456,6 +492,67 @@ mod tests {
             let width = 7.2 * label.chars().count() as f64;
             assert!(x >= 0.0 && x + width <= 900.0, "{label} at x = {x}");
         }
+        let _ = std::fs::remove_dir_all(&dir);
+    }
+
+    /// A label whose box would overlap one already placed moves below its point, then further
+    /// out; one that overlaps nothing stays above.
+    #[test]
+    fn labels_move_off_one_another() {
+        let mut placed = Vec::new();
+        assert_eq!(place_label((100, 100), 6, "2.5 %", &mut placed), (6, -16));
+        assert_eq!(place_label((102, 98), 6, "5 %", &mut placed), (6, 4));
+        assert_eq!(place_label((101, 99), 6, "1 %", &mut placed), (6, -30));
+        assert_eq!(place_label((400, 100), 6, "0 %", &mut placed), (6, -16));
+        let boxes = placed.clone();
+        for (i, a) in boxes.iter().enumerate() {
+            for b in &boxes[i + 1..] {
+                let overlap = a.0 < b.2 && b.0 < a.2 && a.1 < b.3 && b.1 < a.3;
+                assert!(!overlap, "{a:?} {b:?}");
+            }
+        }
+    }
+
+    /// Two points a few pixels apart get labels whose boxes do not overlap in the drawn SVG.
+    #[test]
+    fn near_points_keep_readable_labels() {
+        let dir = std::env::temp_dir().join(format!("haptic-plot-near-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        let path = dir.join("near.svg");
+        let pts = vec![(0.01, 1.0), (0.0101, 1.01), (0.5, 3.0)];
+        let labels = ["2.5 %", "5 %", "0 %"].map(String::from).to_vec();
+        line_chart(
+            &path,
+            &Chart {
+                title: "near",
+                x_label: "error",
+                y_label: "time (ms)",
+                x_scale: Scale::Log,
+                y_scale: Scale::Log,
+            },
+            &[Series::new("lod", pts).with_point_labels(labels.clone())],
+        )
+        .unwrap();
+        let svg = std::fs::read_to_string(&path).unwrap();
+        let attr = |tag: &str, name: &str| -> f64 {
+            let start = tag.find(&format!(" {name}=\"")).unwrap() + name.len() + 3;
+            tag[start..].split('"').next().unwrap().parse().unwrap()
+        };
+        let boxes: Vec<(f64, f64, f64, f64)> = labels
+            .iter()
+            .map(|label| {
+                let at = svg
+                    .find(&format!(">\n{label}\n<"))
+                    .expect("the label is drawn");
+                let tag = &svg[svg[..at].rfind("<text").unwrap()..at];
+                let (x, y) = (attr(tag, "x"), attr(tag, "y"));
+                (x, y, x + 7.2 * label.chars().count() as f64, y + 13.0)
+            })
+            .collect();
+        let overlap = |a: &(f64, f64, f64, f64), b: &(f64, f64, f64, f64)| {
+            a.0 < b.2 && b.0 < a.2 && a.1 < b.3 && b.1 < a.3
+        };
+        assert!(!overlap(&boxes[0], &boxes[1]), "{boxes:?}");
         let _ = std::fs::remove_dir_all(&dir);
     }
 
