@@ -214,7 +214,7 @@ pub(crate) struct Walk<'a> {
     /// to stop there ([`super::StoppingRule::min_coherence`]) in a walk pair by pair
     /// ([`Pass::PairByPair`]); below 0, any.
     pub min_coherence: Real,
-    /// Whether the regions' bound on their force's direction error is held within the
+    /// Whether the regions' bound on their force's error is held within the
     /// threshold of the net force by refining the largest (`refine.rs`,
     /// [`super::StoppingRule::refines_regions`]).
     pub refine: bool,
@@ -421,8 +421,8 @@ pub(crate) fn walk_from_stack(
                     written.push(Written::of(
                         out.len(),
                         (ia, ib),
-                        area_m2 * gap_weight_m(pc.depth, delta),
-                        coherence,
+                        (area_m2 * gap_weight_m(pc.depth, delta), area_m2),
+                        (coherence, offset.half_width_m),
                         &pc.n,
                         r.pieces_beyond(delta) && coherence < walk.min_coherence,
                     ));

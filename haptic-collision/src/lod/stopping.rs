@@ -36,7 +36,9 @@
 //!
 //! [`StoppingRule::CoherenceBudget`] asks the same of the regions' sum instead of each region:
 //! it walks as the paper's rule does (with the cap and the cull above), then bounds the error
-//! of the regions written, `Σ wᵢ (1 − cᵢ)` (`wᵢ` a region's penalty weight `∫g`), against the
+//! of the regions written, `Σ wᵢ (1 − cᵢ) + aᵢ sᵢ` (`wᵢ` a region's penalty weight `∫g`, `aᵢ`
+//! its area, `sᵢ` the half-width of its surfaces' heights about its pieces: the error of its
+//! force's direction and of its weight), against the
 //! threshold's share of the net force, `τ |Σ wᵢ nᵢ|`; where it is larger, the regions with the
 //! largest bounds are refined under the coherence condition until the rest is within it
 //! (`refine.rs`). The refinement goes where the force is, and where opposed contacts cancel the
@@ -64,7 +66,9 @@ pub enum StoppingRule {
     DeviationAndCoherence,
     /// The coherence rule's cap and cull, and its coherence condition held for the regions
     /// together rather than one by one: the walk stops as the paper's rule does, then the
-    /// regions whose bound `w (1 − c)` on their force's direction error is largest are refined
+    /// regions whose bound `w (1 − c) + a s` on their force's error (its direction's, and its
+    /// weight's over the area `a` where the surfaces spread `± s` about the pieces) is largest
+    /// are refined
     /// under the coherence condition until the bounds left sum to at most the threshold's share
     /// of the net force (`ε / tool radius` of `|Σ w n|`, per obstacle). A region whose pieces lie
     /// beyond `δ` of each other (within reach only through the surfaces they stand for) and are
@@ -128,8 +132,8 @@ impl StoppingRule {
         }
     }
 
-    /// Whether the regions written are refined until their bound on the direction error of
-    /// their force is within the threshold of the net force (`refine.rs`).
+    /// Whether the regions written are refined until their bound on the error of their force is
+    /// within the threshold of the net force (`refine.rs`).
     pub(crate) fn refines_regions(self) -> bool {
         matches!(self, Self::CoherenceBudget)
     }
