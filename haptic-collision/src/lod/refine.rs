@@ -16,15 +16,18 @@
 //! of half-width `s` about that mean, the same over the whole piece. Where the heights are not
 //! spread that way (a curved cap whose lowest point alone comes within `δ`, a region over part
 //! of a piece whose mean lies elsewhere), `w` is off by up to about `a s`, `a` the area the region
-//! stands for: the weight's change were the surfaces `s` nearer or farther. A region's bound is
-//! the sum of the two, `w (1 − c) + a s`: the force `w n` is off by at most `w |Δn| + |Δw|`.
-//! Without the second term, the spoon in the cup's p90 error at 2.5 % was 0.346 (0.033 with it)
-//! and the spoon in the mug's median 0.049 (0.004), at 53 % more instructions a jaws query
-//! (`docs/decisions.md`, "Stopping rule", twenty-fourth session).
+//! stands for: the weight's change were the surfaces `s` nearer or farther. The force `w n` is
+//! off by at most `w |Δn| + |Δw|`; over the regions, the direction bounds add (the regions of
+//! one curved surface err the same way) and the weights' errors add in quadrature (a spread's
+//! half-width is a statistic, and its sign differs from region to region):
+//! `Σ wᵢ (1 − cᵢ) + √(Σ (aᵢ sᵢ)²)`. Without the weights' term, the spoon in the cup's p90 error
+//! at 2.5 % was 0.346 (0.037 with it) and the spoon in the mug's median 0.049 (0.005), for 10 %
+//! more instructions a jaws query; added linearly, 53 % more (`docs/decisions.md`, "Stopping
+//! rule", twenty-fourth session).
 //!
 //! So the rule bounds the sum instead, against the force the user feels: after the walk, the
-//! bound of every region written, `Σ wᵢ (1 − cᵢ) + aᵢ sᵢ`, is compared with `τ |Σ wᵢ nᵢ|`. Where it is
-//! larger, the regions with the largest bounds are taken out, largest first, until what is left
+//! error of the regions written, `Σ wᵢ (1 − cᵢ) + √(Σ (aᵢ sᵢ)²)`, is compared with
+//! `τ |Σ wᵢ nᵢ|`. Where it is larger, the regions with the largest bounds are taken out, largest first, until what is left
 //! is within `τ |Σ wᵢ nᵢ|`; each pair taken out is descended and walked again, where a region
 //! is written only if both its pieces have `1 − c ≤ τ`. The net force is that of the regions
 //! first written: where opposed contacts cancel (a peg in its hole, a bolt in its nut), it is
@@ -55,10 +58,13 @@ pub(crate) struct Written {
     pub index: u32,
     /// The pair (tool node, obstacle node) that wrote it.
     pub pair: (u32, u32),
-    /// The bound on its force's error, `w (1 − c) + a s` (m³, a force over the stiffness): its
-    /// direction's, and its weight's where the surfaces lie a half-width `s` nearer or farther
-    /// than the spread the weight `w = ∫g` was averaged over (`a` the area it stands for).
+    /// The bound on its force's direction error, `w (1 − c)` (m³: the penalty's weight `∫g`, a
+    /// force over the stiffness).
     pub bound: Real,
+    /// The estimate of its weight's error, `a s` (m³): the weight's change were the surfaces a
+    /// half-width `s` nearer or farther than the spread `w` was averaged over (`a` the area it
+    /// stands for).
+    pub weight_bound: Real,
     /// Its force over the stiffness, `w n` (obstacle frame, m³).
     pub force: Vec3,
     /// Whether it is refined whatever the budget: its pieces are less coherent than the rule
@@ -84,17 +90,26 @@ impl Written {
         Self {
             index: index as u32,
             pair,
-            bound: w * (1.0 - coherence).max(0.0) + area_m2 * spread_m.max(0.0),
+            bound: w * (1.0 - coherence).max(0.0),
+            weight_bound: area_m2 * spread_m.max(0.0),
             force: n * w,
             always,
         }
     }
 }
 
+/// The error a set of regions may make in its net force: their direction bounds added, their
+/// weights' in quadrature (`Σ bᵢ + √(Σ eᵢ²)`, from the sums `Σ bᵢ` and `Σ eᵢ²`). A direction
+/// bound is a bound, and the regions of one curved surface err the same way; a weight's is a
+/// spread's half-width, a statistic whose sign differs from region to region.
+fn error_of(directions: Real, weights_squared: Real) -> Real {
+    directions.max(0.0) + weights_squared.max(0.0).sqrt()
+}
+
 /// How many of `written` must be refined, moved to its front: every one marked `always`, then
-/// the fewest of the others, largest bound first, that leave the rest of the bounds summing to
-/// at most `budget`. Entries of bound 0 (triangle pairs, flat pieces) are taken only when
-/// marked.
+/// the fewest of the others, largest `bound + weight_bound` first, that leave the rest's error
+/// ([`error_of`]) at most `budget`. Entries with neither bound (triangle pairs, flat pieces) are
+/// taken only when marked.
 pub(crate) fn take_largest(written: &mut [Written], budget: Real) -> usize {
     // The marked ones first (a partition, in place).
     let mut marked = 0;
@@ -105,34 +120,41 @@ pub(crate) fn take_largest(written: &mut [Written], budget: Real) -> usize {
         }
     }
     let rest = &mut written[marked..];
-    let total: Real = rest.iter().map(|w| w.bound).sum();
-    let excess = total - budget;
+    let sums = |ws: &[Written]| {
+        ws.iter().fold((0.0, 0.0), |(b, e2), w| {
+            (b + w.bound, e2 + w.weight_bound * w.weight_bound)
+        })
+    };
+    let (total_b, total_e2) = sums(rest);
+    let left_within = |(b, e2): (Real, Real)| error_of(total_b - b, total_e2 - e2) <= budget;
     // (A NaN, from bounds that are not finite, refines nothing more.)
-    if excess.is_nan() || excess <= 0.0 {
+    let error = error_of(total_b, total_e2);
+    if error.is_nan() || error <= budget {
         return marked;
     }
-    let larger = |x: &Written, y: &Written| y.bound.total_cmp(&x.bound);
-    // The fewest largest bounds that cover the excess: partition off the largest k (k doubling,
-    // each partition linear), then sort only those.
+    let key = |w: &Written| w.bound + w.weight_bound;
+    let larger = |x: &Written, y: &Written| key(y).total_cmp(&key(x));
+    // The fewest largest that bring the rest within the budget: partition off the largest k (k
+    // doubling, each partition linear), then sort only those.
     let mut k = rest.len().min(16);
     loop {
         if k < rest.len() {
             rest.select_nth_unstable_by(k - 1, larger);
         }
-        let top: Real = rest[..k].iter().map(|w| w.bound).sum();
-        if top >= excess || k == rest.len() {
+        if left_within(sums(&rest[..k])) || k == rest.len() {
             break;
         }
         k = (2 * k).min(rest.len());
     }
     rest[..k].sort_unstable_by(larger);
-    let mut taken = 0;
-    let mut left = excess;
+    let (mut taken, mut out) = (0, (0.0, 0.0));
     for w in &rest[..k] {
-        if left <= 0.0 || w.bound.is_nan() || w.bound <= 0.0 {
+        let key = key(w);
+        if left_within(out) || key.is_nan() || key <= 0.0 {
             break;
         }
-        left -= w.bound;
+        out.0 += w.bound;
+        out.1 += w.weight_bound * w.weight_bound;
         taken += 1;
     }
     marked + taken
@@ -204,14 +226,36 @@ mod tests {
     #[test]
     fn a_regions_bound_adds_its_weights_error_to_its_directions() {
         let w = Written::of(7, (1, 2), (2.0, 3.0), (0.9, 0.5), &Vec3::z(), false);
-        assert!(
-            (w.bound - (2.0 * 0.1 + 3.0 * 0.5)).abs() < 1e-12,
-            "{}",
-            w.bound
-        );
+        assert!((w.bound - 2.0 * 0.1).abs() < 1e-12, "{}", w.bound);
+        assert_eq!(w.weight_bound, 3.0 * 0.5);
         assert_eq!(w.force, Vec3::new(0.0, 0.0, 2.0));
         let triangles = Written::of(7, (1, 2), (2.0, 3.0), (1.0, 0.0), &Vec3::z(), false);
-        assert_eq!(triangles.bound, 0.0);
+        assert_eq!((triangles.bound, triangles.weight_bound), (0.0, 0.0));
+    }
+
+    /// Weight errors add in quadrature, direction bounds linearly: four weight errors of 1
+    /// make 2, not 4; with a direction bound of 1 beside them, 3.
+    #[test]
+    fn weight_errors_add_in_quadrature_and_direction_bounds_linearly() {
+        let mut w = written(&[0.0; 4]);
+        for x in &mut w {
+            x.weight_bound = 1.0;
+        }
+        assert_eq!(take_largest(&mut w, 2.0), 0);
+        assert_eq!(take_largest(&mut w, 1.9), 1);
+        // Taking one leaves √3 ≤ 1.8.
+        let mut w = written(&[0.0, 0.0, 0.0, 0.0, 1.0]);
+        for x in &mut w[..4] {
+            x.weight_bound = 1.0;
+        }
+        assert_eq!(take_largest(&mut w, 3.0), 0);
+        // 2.8: one taken leaves 1 + √3 or 2, within it (every key is 1).
+        let k = take_largest(&mut w, 2.8);
+        assert_eq!(k, 1);
+        let (b, e2) = w[k..].iter().fold((0.0, 0.0), |(b, e2), x| {
+            (b + x.bound, e2 + x.weight_bound * x.weight_bound)
+        });
+        assert!(error_of(b, e2) <= 2.8, "{b} {e2}");
     }
 
     fn written(bounds: &[Real]) -> Vec<Written> {
@@ -222,6 +266,7 @@ mod tests {
                 index: i as u32,
                 pair: (i as u32, 0),
                 bound: b,
+                weight_bound: 0.0,
                 force: Vec3::zeros(),
                 always: false,
             })

@@ -36,9 +36,9 @@
 //!
 //! [`StoppingRule::CoherenceBudget`] asks the same of the regions' sum instead of each region:
 //! it walks as the paper's rule does (with the cap and the cull above), then bounds the error
-//! of the regions written, `Σ wᵢ (1 − cᵢ) + aᵢ sᵢ` (`wᵢ` a region's penalty weight `∫g`, `aᵢ`
-//! its area, `sᵢ` the half-width of its surfaces' heights about its pieces: the error of its
-//! force's direction and of its weight), against the
+//! of the regions written, `Σ wᵢ (1 − cᵢ) + √(Σ (aᵢ sᵢ)²)` (`wᵢ` a region's penalty weight
+//! `∫g`, `aᵢ` its area, `sᵢ` the half-width of its surfaces' heights about its pieces: the
+//! errors of its force's direction, added, and of its weight, added in quadrature), against the
 //! threshold's share of the net force, `τ |Σ wᵢ nᵢ|`; where it is larger, the regions with the
 //! largest bounds are refined under the coherence condition until the rest is within it
 //! (`refine.rs`). The refinement goes where the force is, and where opposed contacts cancel the
@@ -68,7 +68,7 @@ pub enum StoppingRule {
     /// together rather than one by one: the walk stops as the paper's rule does, then the
     /// regions whose bound `w (1 − c) + a s` on their force's error (its direction's, and its
     /// weight's over the area `a` where the surfaces spread `± s` about the pieces) is largest
-    /// are refined
+    /// are refined (the direction bounds added, the weights' in quadrature)
     /// under the coherence condition until the bounds left sum to at most the threshold's share
     /// of the net force (`ε / tool radius` of `|Σ w n|`, per obstacle). A region whose pieces lie
     /// beyond `δ` of each other (within reach only through the surfaces they stand for) and are
