@@ -453,46 +453,58 @@ mod tests {
             .collect()
     }
 
-    /// A point's label stays inside the image, the rightmost one included.
-    #[test]
-    fn point_labels_stay_inside_the_image() {
-        let dir = std::env::temp_dir().join(format!("haptic-plot-labels-{}", std::process::id()));
+    /// `pts` labelled with `labels` (log x, `y_scale` y) drawn to an SVG, and each label's
+    /// text box `(left, top, right, bottom)` in it (13 px text, about 7.2 px a character).
+    fn drawn_label_boxes(
+        name: &str,
+        pts: Vec<(f64, f64)>,
+        labels: &[&str],
+        y_scale: Scale,
+    ) -> Vec<(f64, f64, f64, f64)> {
+        let dir = std::env::temp_dir().join(format!("haptic-plot-{name}-{}", std::process::id()));
         std::fs::create_dir_all(&dir).unwrap();
-        let path = dir.join("labels.svg");
-        let pts = vec![(1e-6, 0.09), (1e-4, 0.085), (2e-3, 0.08)];
-        let labels = ["0.4 %", "1 %", "2.5, 5 %"].map(String::from).to_vec();
+        let path = dir.join(format!("{name}.svg"));
+        let labels: Vec<String> = labels.iter().map(|l| l.to_string()).collect();
         line_chart(
             &path,
             &Chart {
-                title: "labels",
+                title: name,
                 x_label: "error",
                 y_label: "time (ms)",
                 x_scale: Scale::Log,
-                y_scale: Scale::Linear,
+                y_scale,
             },
             &[Series::new("lod", pts).with_point_labels(labels.clone())],
         )
         .unwrap();
         let svg = std::fs::read_to_string(&path).unwrap();
-        for label in &labels {
-            // plotters writes a text element's content on its own line.
-            let at = svg
-                .find(&format!(">\n{label}\n<"))
-                .expect("the label is drawn");
-            let tag = &svg[svg[..at].rfind("<text").unwrap()..at];
-            let x: f64 = tag
-                .split(" x=\"")
-                .nth(1)
-                .unwrap()
-                .split('"')
-                .next()
-                .unwrap()
-                .parse()
-                .unwrap();
-            let width = 7.2 * label.chars().count() as f64;
-            assert!(x >= 0.0 && x + width <= 900.0, "{label} at x = {x}");
-        }
         let _ = std::fs::remove_dir_all(&dir);
+        let attr = |tag: &str, name: &str| -> f64 {
+            let start = tag.find(&format!(" {name}=\"")).unwrap() + name.len() + 3;
+            tag[start..].split('"').next().unwrap().parse().unwrap()
+        };
+        labels
+            .iter()
+            .map(|label| {
+                // plotters writes a text element's content on its own line.
+                let at = svg
+                    .find(&format!(">\n{label}\n<"))
+                    .expect("the label is drawn");
+                let tag = &svg[svg[..at].rfind("<text").unwrap()..at];
+                let (x, y) = (attr(tag, "x"), attr(tag, "y"));
+                (x, y, x + 7.2 * label.chars().count() as f64, y + 13.0)
+            })
+            .collect()
+    }
+
+    /// A point's label stays inside the image, the rightmost one included.
+    #[test]
+    fn point_labels_stay_inside_the_image() {
+        let pts = vec![(1e-6, 0.09), (1e-4, 0.085), (2e-3, 0.08)];
+        let boxes = drawn_label_boxes("inside", pts, &["0.4 %", "1 %", "2.5, 5 %"], Scale::Linear);
+        for b in &boxes {
+            assert!(b.0 >= 0.0 && b.2 <= 900.0, "{b:?}");
+        }
     }
 
     /// A label whose box would overlap one already placed moves below its point, then further
@@ -516,44 +528,11 @@ mod tests {
     /// Two points a few pixels apart get labels whose boxes do not overlap in the drawn SVG.
     #[test]
     fn near_points_keep_readable_labels() {
-        let dir = std::env::temp_dir().join(format!("haptic-plot-near-{}", std::process::id()));
-        std::fs::create_dir_all(&dir).unwrap();
-        let path = dir.join("near.svg");
         let pts = vec![(0.01, 1.0), (0.0101, 1.01), (0.5, 3.0)];
-        let labels = ["2.5 %", "5 %", "0 %"].map(String::from).to_vec();
-        line_chart(
-            &path,
-            &Chart {
-                title: "near",
-                x_label: "error",
-                y_label: "time (ms)",
-                x_scale: Scale::Log,
-                y_scale: Scale::Log,
-            },
-            &[Series::new("lod", pts).with_point_labels(labels.clone())],
-        )
-        .unwrap();
-        let svg = std::fs::read_to_string(&path).unwrap();
-        let attr = |tag: &str, name: &str| -> f64 {
-            let start = tag.find(&format!(" {name}=\"")).unwrap() + name.len() + 3;
-            tag[start..].split('"').next().unwrap().parse().unwrap()
-        };
-        let boxes: Vec<(f64, f64, f64, f64)> = labels
-            .iter()
-            .map(|label| {
-                let at = svg
-                    .find(&format!(">\n{label}\n<"))
-                    .expect("the label is drawn");
-                let tag = &svg[svg[..at].rfind("<text").unwrap()..at];
-                let (x, y) = (attr(tag, "x"), attr(tag, "y"));
-                (x, y, x + 7.2 * label.chars().count() as f64, y + 13.0)
-            })
-            .collect();
-        let overlap = |a: &(f64, f64, f64, f64), b: &(f64, f64, f64, f64)| {
-            a.0 < b.2 && b.0 < a.2 && a.1 < b.3 && b.1 < a.3
-        };
-        assert!(!overlap(&boxes[0], &boxes[1]), "{boxes:?}");
-        let _ = std::fs::remove_dir_all(&dir);
+        let boxes = drawn_label_boxes("near", pts, &["2.5 %", "5 %", "0 %"], Scale::Log);
+        let (a, b) = (boxes[0], boxes[1]);
+        let overlap = a.0 < b.2 && b.0 < a.2 && a.1 < b.3 && b.1 < a.3;
+        assert!(!overlap, "{boxes:?}");
     }
 
     /// Every chart kind holds tick labels on both axes, and none with float noise.
