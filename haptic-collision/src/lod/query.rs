@@ -422,7 +422,7 @@ pub(crate) fn walk_from_stack(
                         out.len(),
                         (ia, ib),
                         (area_m2 * gap_weight_m(pc.depth, delta), area_m2),
-                        (coherence, offset.half_width_m),
+                        (coherence, offset.half_width_m, ma.cover * mb.cover),
                         &pc.n,
                         r.pieces_beyond(delta) && coherence < walk.min_coherence,
                     ));

@@ -36,9 +36,10 @@
 //!
 //! [`StoppingRule::CoherenceBudget`] asks the same of the regions' sum instead of each region:
 //! it walks as the paper's rule does (with the cap and the cull above), then bounds the error
-//! of the regions written, `Σ wᵢ (1 − cᵢ) + √(Σ (aᵢ sᵢ)²)` (`wᵢ` a region's penalty weight
-//! `∫g`, `aᵢ` its area, `sᵢ` the half-width of its surfaces' heights about its pieces: the
-//! errors of its force's direction, added, and of its weight, added in quadrature), against the
+//! of the regions written, `Σ wᵢ (1 − cᵢ) + √(Σ eᵢ²)` (`wᵢ` a region's penalty weight `∫g`,
+//! `eᵢ = aᵢ sᵢ + wᵢ (1 − kᵢ)` its weight's error from its area `aᵢ`, the half-width `sᵢ` of its
+//! surfaces' heights about its pieces and the share `kᵢ` of them the surfaces cover: the errors
+//! of its force's direction added, of its weight in quadrature), against the
 //! threshold's share of the net force, `τ |Σ wᵢ nᵢ|`; where it is larger, the regions with the
 //! largest bounds are refined under the coherence condition until the rest is within it
 //! (`refine.rs`). The refinement goes where the force is, and where opposed contacts cancel the
@@ -66,8 +67,9 @@ pub enum StoppingRule {
     DeviationAndCoherence,
     /// The coherence rule's cap and cull, and its coherence condition held for the regions
     /// together rather than one by one: the walk stops as the paper's rule does, then the
-    /// regions whose bound `w (1 − c) + a s` on their force's error (its direction's, and its
-    /// weight's over the area `a` where the surfaces spread `± s` about the pieces) is largest
+    /// regions whose bound `w (1 − c) + a s + w (1 − k)` on their force's error (its
+    /// direction's, and its weight's: over the area `a` where the surfaces spread `± s` about the
+    /// pieces, and where they cover a share `k` of them) is largest
     /// are refined (the direction bounds added, the weights' in quadrature)
     /// under the coherence condition until the bounds left sum to at most the threshold's share
     /// of the net force (`ε / tool radius` of `|Σ w n|`, per obstacle). A region whose pieces lie
