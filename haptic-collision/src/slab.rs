@@ -610,14 +610,22 @@ mod tests {
             let cell = area / (n * n) as Real;
             for i in 0..n {
                 for j in 0..n - i {
-                    for (a, b, up) in [(i as Real + 1.0 / 3.0, j as Real + 1.0 / 3.0, true),
-                                       (i as Real + 2.0 / 3.0, j as Real + 2.0 / 3.0, false)] {
+                    for (a, b, up) in [
+                        (i as Real + 1.0 / 3.0, j as Real + 1.0 / 3.0, true),
+                        (i as Real + 2.0 / 3.0, j as Real + 2.0 / 3.0, false),
+                    ] {
                         if !up && i + j + 1 >= n {
                             continue;
                         }
-                        let p = v[0] + (v[1] - v[0]) * (a / n as Real) + (v[2] - v[0]) * (b / n as Real);
+                        let p = v[0]
+                            + (v[1] - v[0]) * (a / n as Real)
+                            + (v[2] - v[0]) * (b / n as Real);
                         // `s = 0`: the weight continued linearly, as the clipped polygon has it.
-                        let (w, w2) = if s > 0.0 { weight.at(p.z) } else { (DELTA - p.z, (DELTA - p.z).powi(2)) };
+                        let (w, w2) = if s > 0.0 {
+                            weight.at(p.z)
+                        } else {
+                            (DELTA - p.z, (DELTA - p.z).powi(2))
+                        };
                         g += w * cell;
                         gx += p * (w * cell);
                         g2 += w2 * cell;

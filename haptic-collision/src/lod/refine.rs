@@ -21,23 +21,25 @@
 //! a patch that is not convex spreads beyond it; `SurfaceMoments::cover`), while the part of
 //! the pieces it lies over may be covered more or less: `w` is off by up to about `w (1 − k)`
 //! more. On the peg, whose coarse pieces' covers are about a half, that term took its error at
-//! 2.5 % from 0.470 to 0.228. The force `w n` is
-//! off by at most `w |Δn| + |Δw|`; over the regions, the direction bounds add (the regions of
-//! one curved surface err the same way) and the weights' errors add in quadrature (a spread's
-//! half-width is a statistic, and its sign differs from region to region):
-//! `Σ wᵢ (1 − cᵢ) + √(Σ eᵢ²)`, `eᵢ = aᵢ sᵢ + wᵢ (1 − kᵢ)`. Without the weights' term, the spoon in the cup's p90 error
-//! at 2.5 % was 0.346 (0.037 with it) and the spoon in the mug's median 0.049 (0.005), for 10 %
-//! more instructions a jaws query; added linearly, 53 % more (`docs/decisions.md`, "Stopping
-//! rule", twenty-fourth session).
+//! 2.5 % from 0.470 to 0.228. The force `w n` is off by at most `w |Δn| + |Δw|`; over the
+//! regions, the direction bounds add (the regions of one curved surface err the same way) and
+//! the weights' errors add in quadrature (a spread's half-width is a statistic, and its sign
+//! differs from region to region): `Σ wᵢ (1 − cᵢ) + √(Σ eᵢ²)`, `eᵢ = aᵢ sᵢ + wᵢ (1 − kᵢ)`.
+//! Without the weights' term, the spoon in the cup's p90 error at 2.5 % was 0.346 (0.037 with
+//! the spread's) and the spoon in the mug's median 0.049 (0.005), for 10 % more instructions a
+//! jaws query; added linearly, 53 % more (`docs/decisions.md`, "Stopping rule", twenty-fourth
+//! session).
 //!
 //! So the rule bounds the sum instead, against the force the user feels: after the walk, the
 //! error of the regions written, `Σ wᵢ (1 − cᵢ) + √(Σ eᵢ²)`, is compared with
-//! `τ |Σ wᵢ nᵢ|`. Where it is larger, the regions with the largest bounds are taken out, largest first, until what is left
-//! is within `τ |Σ wᵢ nᵢ|`; each pair taken out is descended and walked again, where a region
-//! is written only if both its pieces have `1 − c ≤ τ`. The net force is that of the regions
+//! `τ |Σ wᵢ nᵢ|`. Where it is larger, the regions with the largest bounds are taken out,
+//! largest first, until what is left is within `τ |Σ wᵢ nᵢ|`; each pair taken out is
+//! descended and walked again, where a region is written only if both its pieces have
+//! `1 − c ≤ τ`. The net force is that of the regions
 //! first written: where opposed contacts cancel (a peg in its hole, a bolt in its nut), it is
 //! small, the budget with it, and more is refined. Triangle pairs (`c = 1`, `s = 0`) are never
-//! taken out, so at threshold 0 nothing changes. Each obstacle is refined against its own net force.
+//! taken out, so at threshold 0 nothing changes. Each obstacle is refined against its own net
+//! force.
 //!
 //! One kind of region is refined whatever the budget: one whose pieces fail the coherence
 //! condition and lie beyond `δ` of each other, within reach only through the surfaces they
