@@ -319,7 +319,7 @@ const DUNAVANT5: [(Real, Real, Real); 3] = [
 ];
 
 /// The corners of a polygon's fan triangles, `(v0, v_k, v_k+1)`, with the triangle's area
-/// (degenerate ones left out).
+/// (degenerate ones left out; none for fewer than three vertices).
 fn fan(p: &Poly) -> impl Iterator<Item = ([Vec3; 3], Real)> + '_ {
     let v = |k: usize| Vec3::new(p.0[k][0], p.0[k][1], p.0[k][2]);
     let v0 = v(0);
@@ -358,9 +358,6 @@ impl Sums {
     /// and `∫g² = A/12 (Σ gᵢ² + (Σ gᵢ)²)` on each fan triangle, and the spread adds `s²/3`
     /// to `E[w²]` everywhere.
     fn add_linear(&mut self, p: &Poly, delta: Real, s: Real) {
-        if p.1 < 3 {
-            return;
-        }
         let spread2 = s * s / 3.0;
         for (v, area) in fan(p) {
             let g = v.map(|x| delta - x.z);
@@ -374,9 +371,6 @@ impl Sums {
 
     /// Within `s` of the top: a polynomial of degree 3 in the height, by the quadrature.
     fn add_band(&mut self, p: &Poly, weight: &Weight) {
-        if p.1 < 3 {
-            return;
-        }
         for ([v0, v1, v2], area) in fan(p) {
             let mut at = |x: Vec3, wt: Real| {
                 let (g, g2) = weight.at(x.z);

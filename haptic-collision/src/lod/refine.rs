@@ -158,8 +158,8 @@ pub(crate) fn take_largest(written: &mut [Written], budget: Real) -> usize {
     rest[..k].sort_unstable_by(larger);
     let (mut taken, mut out) = (0, (0.0, 0.0));
     for w in &rest[..k] {
-        let key = key(w);
-        if left_within(out) || key.is_nan() || key <= 0.0 {
+        let bounds = key(w);
+        if left_within(out) || bounds.is_nan() || bounds <= 0.0 {
             break;
         }
         out.0 += w.bound;
