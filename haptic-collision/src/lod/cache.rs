@@ -28,7 +28,8 @@ const MAGIC: &[u8; 10] = b"HAPTICLOD\0";
 pub const FORMAT_VERSION: u32 = 2;
 /// What the build does, in words: part of every key, so that a change to the build (a new
 /// bound, a new piece) makes old files another build's. Change it with the build.
-const BUILD: &str = "haptic-collision lod build 4: median split on centroids or cut along the \
+const BUILD: &str = "haptic-collision lod build 5: median split on centroids (a quad's two halves \
+                     at its centroid, together, quads.rs) or cut along the \
                      normals' spread (split.rs), planar convex pieces of at most \
                      MAX_PIECE_VERTICES, slab and deviation bounds (piece → surface regions \
                      dropped once bounded, candidates' distances in their own planes)";

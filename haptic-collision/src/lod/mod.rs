@@ -64,6 +64,7 @@ mod cache;
 mod deviation;
 mod moments;
 pub(crate) mod query;
+mod quads;
 mod refine;
 mod split;
 mod stopping;

@@ -4,7 +4,8 @@
 //! thicknesses along their own area-weighted normals, which bounds how far a planar piece can be
 //! from them):
 //! - **by position**: the median centroid along the longest axis of the centroids' box, which
-//!   halves the node's extent and so, on a smooth surface, quarters its thickness;
+//!   halves the node's extent and so, on a smooth surface, quarters its thickness; the two
+//!   halves of a quad (`quads.rs`) share their quad's centroid and are never cut apart;
 //! - **by orientation**: the triangles sorted along the direction in which their normals spread
 //!   most, cut at the widest gap of that order, when that gap is a crease (every normal on one
 //!   side at least [`CREASE_ANGLE_RAD`] from every normal on the other): a box's sides, a
@@ -18,6 +19,8 @@
 //! ([`MIN_SHARE`]) for the tree's depth to stay logarithmic in practice.
 
 use haptic_core::{Mat3, Real, Vec3};
+
+use super::quads;
 
 /// A cut by orientation must leave at least `1 / MIN_SHARE` of the node's triangles on each
 /// side, so that the tree's depth stays logarithmic in practice.
@@ -37,8 +40,11 @@ pub(super) const ORIENTATION_GAIN: Real = 0.5;
 pub(super) struct Triangles<'a> {
     /// The three corners.
     pub corners: &'a [[Vec3; 3]],
-    /// The centroids.
-    pub centroids: &'a [Vec3],
+    /// Where the split by position places each: its centroid, or its quad's
+    /// ([`quads::positions`]).
+    pub positions: &'a [Vec3],
+    /// Each one's quad partner, or [`quads::NONE`].
+    pub partner: &'a [u32],
     /// `(b − a) × (c − a)`: along the normal, twice the area long.
     pub area_normals: &'a [Vec3],
 }
@@ -74,19 +80,34 @@ impl Triangles<'_> {
         self.thickness(&tris[..m]).max(self.thickness(&tris[m..]))
     }
 
-    /// Reorders `tris` (at least two) into the median split by position; returns the cut.
+    /// Reorders `tris` (at least two) into the median split by position; returns the cut,
+    /// which keeps a quad's two halves on one side when there are more than two triangles.
     fn by_position(&self, tris: &mut [u32]) -> usize {
         let (mut lo, mut hi) = (Vec3::repeat(Real::INFINITY), Vec3::repeat(-Real::INFINITY));
         for &t in tris.iter() {
-            lo = lo.inf(&self.centroids[t as usize]);
-            hi = hi.sup(&self.centroids[t as usize]);
+            lo = lo.inf(&self.positions[t as usize]);
+            hi = hi.sup(&self.positions[t as usize]);
         }
         let axis = (hi - lo).imax();
         let mid = tris.len() / 2;
+        // Ordered by position, then by quad (its smaller index), then by index: a quad's two
+        // halves are neighbours in the order.
+        let quad = |t: u32| t.min(self.partner[t as usize]);
         tris.select_nth_unstable_by(mid, |&a, &b| {
-            self.centroids[a as usize][axis].total_cmp(&self.centroids[b as usize][axis])
+            self.positions[a as usize][axis]
+                .total_cmp(&self.positions[b as usize][axis])
+                .then(quad(a).cmp(&quad(b)))
+                .then(a.cmp(&b))
         });
-        mid
+        // `tris[mid]` is the first of the right part; its partner, when it comes before it,
+        // is the last of the left part: take `tris[mid]` to the left too.
+        let t = tris[mid];
+        let p = self.partner[t as usize];
+        if tris.len() > 2 && p < t && tris[..mid].contains(&p) {
+            mid + 1
+        } else {
+            mid
+        }
     }
 
     /// Reorders `tris` along the normals' direction of largest spread and returns the cut at
@@ -177,8 +198,10 @@ impl Triangles<'_> {
 pub(super) struct TriangleData {
     /// The three corners of each triangle.
     pub corners: Vec<[Vec3; 3]>,
-    /// The centroids.
-    pub centroids: Vec<Vec3>,
+    /// Where the split by position places each (see [`Triangles::positions`]).
+    pub positions: Vec<Vec3>,
+    /// Each one's quad partner, or [`quads::NONE`].
+    pub partner: Vec<u32>,
     /// `(b − a) × (c − a)` of each.
     pub area_normals: Vec<Vec3>,
 }
@@ -189,14 +212,17 @@ impl TriangleData {
         let corners: Vec<[Vec3; 3]> = (0..mesh.triangles().len())
             .map(|t| mesh.triangle(t))
             .collect();
-        let centroids = corners.iter().map(|t| (t[0] + t[1] + t[2]) / 3.0).collect();
-        let area_normals = corners
+        let centroids: Vec<Vec3> = corners.iter().map(|t| (t[0] + t[1] + t[2]) / 3.0).collect();
+        let area_normals: Vec<Vec3> = corners
             .iter()
             .map(|t| (t[1] - t[0]).cross(&(t[2] - t[0])))
             .collect();
+        let partner = quads::partners(mesh.triangles(), &corners, &area_normals);
+        let positions = quads::positions(&centroids, &area_normals, &partner);
         Self {
             corners,
-            centroids,
+            positions,
+            partner,
             area_normals,
         }
     }
@@ -205,7 +231,8 @@ impl TriangleData {
     pub(super) fn view(&self) -> Triangles<'_> {
         Triangles {
             corners: &self.corners,
-            centroids: &self.centroids,
+            positions: &self.positions,
+            partner: &self.partner,
             area_normals: &self.area_normals,
         }
     }

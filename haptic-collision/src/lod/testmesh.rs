@@ -115,3 +115,32 @@ pub fn bumpy_sphere(levels: usize, r: Real, bump: Real, seed: u64) -> TriMesh {
         .collect();
     mesh(v, t)
 }
+
+/// A closed cylinder of radius `r` and height `h` (z from 0 to `h`) with `segments` sides: the
+/// wall first, as full-length strips of two triangles each (strip `s` is triangles `2s` and
+/// `2s + 1`), then the two caps as fans about their centres. Outward CCW triangles.
+pub fn cylinder(r: Real, h: Real, segments: usize) -> TriMesh {
+    let n = segments as u32;
+    let mut v = Vec::with_capacity(2 * segments + 2);
+    for z in [0.0, h] {
+        for s in 0..segments {
+            let a = std::f64::consts::TAU * s as Real / segments as Real;
+            v.push(Vec3::new(r * a.cos(), r * a.sin(), z));
+        }
+    }
+    v.push(Vec3::zeros());
+    v.push(Vec3::new(0.0, 0.0, h));
+    let (bottom, top) = (2 * n, 2 * n + 1);
+    let mut t = Vec::with_capacity(4 * segments);
+    for s in 0..n {
+        let s1 = (s + 1) % n;
+        t.push([s, s1, n + s1]);
+        t.push([s, n + s1, n + s]);
+    }
+    for s in 0..n {
+        let s1 = (s + 1) % n;
+        t.push([bottom, s1, s]);
+        t.push([top, n + s, n + s1]);
+    }
+    mesh(v, t)
+}
