@@ -10,7 +10,8 @@ use haptic_core::NO_FEATURE;
 
 use crate::geometry::{PairContact, triangle_normal, triangle_pair};
 use crate::lod::LodError;
-use crate::lod::query::{CLOSEST_APPROACH_AREA_M2, Frames, touching_if_crossing};
+use crate::lod::closest::{CLOSEST_APPROACH_AREA_M2, touching_if_crossing};
+use crate::lod::query::Frames;
 use crate::mesh::TriMesh;
 use crate::slab::{HeightOffset, pair_region};
 

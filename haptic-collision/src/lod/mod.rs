@@ -33,10 +33,13 @@
 //! shifted and spread by where the surfaces they simplify lie about them (each node's
 //! area-weighted mean and variance of height, `moments.rs`), and counts the share of its area
 //! that the surface covers of the piece. After the walk, the pairs whose closest approach could
-//! be closer than every contact written are searched exactly, and the closest approach is
-//! written as a contact of negligible area, so the reported smallest separation is
-//! the exact one of the stopped pieces: when the exact surfaces are apart by `D` with
-//! `ε < D < δ − ε`, it is within `ε` of `D`. At `error_threshold = 0` the walk descends to
+//! be closer than every contact written are searched, and the closest approach is written as a
+//! contact of negligible area (`closest.rs`). Its distance is one between the surfaces, never
+//! nearer than they are: where nothing else is written against the obstacle, the exact smallest
+//! separation of the triangles under the pairs searched (the contact is then the call's only
+//! one, and pushes with the whole stiffness); beside regions, the triangles' under the pair
+//! whose pieces are nearest. When the exact surfaces are apart by `D` with `ε < D < δ − ε`, it
+//! is within `ε` of `D`. At `error_threshold = 0` the walk descends to
 //! triangle pairs and the contacts are exact (the same as
 //! [`crate::reference::ReferenceBackend`]).
 //!
@@ -61,10 +64,11 @@
 
 mod build;
 mod cache;
+pub(crate) mod closest;
 mod deviation;
 mod moments;
-pub(crate) mod query;
 mod quads;
+pub(crate) mod query;
 mod refine;
 mod split;
 mod stopping;
@@ -78,8 +82,9 @@ use haptic_core::{CollisionBackend, ContactSet, CoreError, Pose, QueryParams, Qu
 
 pub use build::Hierarchy;
 pub use cache::{CacheOutcome, FORMAT_VERSION, HierarchyFileError, hierarchy_key};
+use closest::closest_approaches;
 pub(crate) use moments::SurfaceMoments;
-use query::{Frames, Nearest, Scratch, Walk, closest_approaches, collide};
+use query::{Frames, Nearest, Scratch, Walk, collide};
 pub use stopping::{StoppingRule, UnknownStoppingRule};
 
 use crate::compact::Compactor;
@@ -429,6 +434,7 @@ impl CollisionBackend for LodBackend {
             params.delta_m,
             &mut self.scratch,
             out,
+            &mut stats,
         )?;
         if let Some(max) = self.max_contacts {
             let found = self.compactor.compact(out, params.delta_m, max);

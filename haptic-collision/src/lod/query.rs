@@ -7,8 +7,7 @@ use haptic_core::{
 use super::build::{Hierarchy, Node, PieceBall};
 use super::refine::{Written, refine_regions};
 use super::{LodError, MAX_PIECE_VERTICES};
-use crate::compact::AREA_FLOOR_M2;
-use crate::geometry::{PairContact, convex_polygon_pair};
+use crate::geometry::PairContact;
 use crate::slab::{HeightOffset, pair_region};
 
 /// The rigid map from the tool's body frame to one obstacle's mesh frame, and what is needed to
@@ -466,99 +465,4 @@ pub(crate) fn descend(ia: u32, a: &Node, ib: u32, b: &Node, stack: &mut Vec<(u32
         stack.push((ia, b.right));
         stack.push((ia, ib + 1));
     }
-}
-
-/// The area a closest-approach contact stands for (m²): the compaction's floor, 10⁻¹⁸ m², so
-/// that it weighs nothing beside the regions; not 0, which the clustering reads as "this back-end
-/// does not measure areas" and then weighs every contact of the call alike.
-pub(crate) const CLOSEST_APPROACH_AREA_M2: Real = AREA_FLOOR_M2;
-
-/// A pair's closest approach as a contact: where the polygons cross, touching (depth 0) at the
-/// middle of their separating-axis contact, since the regions carry the force and the
-/// separating-axis depth measures the polygons' sizes rather than how far the tool went in.
-pub(crate) fn touching_if_crossing(pc: PairContact) -> PairContact {
-    if pc.depth <= 0.0 {
-        return pc;
-    }
-    let x = (pc.p_a + pc.p_b) * 0.5;
-    PairContact {
-        p_a: x,
-        p_b: x,
-        depth: 0.0,
-        distance: 0.0,
-        ..pc
-    }
-}
-
-/// The closest approach among the stopped pairs that could hold one closer than written
-/// (`scratch.apart`, emptied), one contact per obstacle where it is closer than every contact
-/// written against that obstacle.
-///
-/// A region's contact sits at its weighted mean depth, and a pair's closest points may lie
-/// beyond the obstacle piece's edges, outside every region; so the pairs whose lower bound is
-/// below the smallest distance found (a region's nearest point, or a contact's) are searched
-/// exactly, and so is the pair whose region that was: the smallest distance written is then the
-/// exact distance between the stopped pieces (0 where they cross). The contact stands for
-/// [`CLOSEST_APPROACH_AREA_M2`]: it reports the distance without adding to the force the regions
-/// integrate.
-///
-/// # Errors
-/// [`LodError::Core`] for a non-finite contact.
-pub(crate) fn closest_approaches(
-    tool: &Hierarchy,
-    obstacles: &[(Hierarchy, Pose)],
-    delta_m: Real,
-    scratch: &mut Scratch,
-    out: &mut ContactSet,
-) -> Result<(), LodError> {
-    let Scratch {
-        apart,
-        nearest,
-        frames,
-        ..
-    } = scratch;
-    // By obstacle, so that each obstacle's closest approach is found in one run.
-    apart.sort_unstable_by_key(|&(_, o, ia, ib)| (o, ia, ib));
-    let mut buf = [Vec3::zeros(); MAX_PIECE_VERTICES];
-    for run in apart.chunk_by(|x, y| x.1 == y.1) {
-        let o = run[0].1;
-        let (obs, _) = &obstacles[o as usize];
-        let f = &frames[o as usize];
-        let found = nearest[o as usize];
-        let mut exact = |ia: u32, ib: u32| {
-            let (a, b) = (&tool.nodes[ia as usize], &obs.nodes[ib as usize]);
-            let (len, na) = place_piece(tool, a, f, &mut buf);
-            let pc = convex_polygon_pair(&buf[..len], &na, obs.piece_of(b), &b.normal);
-            (touching_if_crossing(pc), CLOSEST_APPROACH_AREA_M2)
-        };
-        let mut near = found.found_m;
-        let mut closest: Option<(PairContact, Real)> = None;
-        for &(gap, _, ia, ib) in run {
-            if gap >= near {
-                continue;
-            }
-            let (pc, area_m2) = exact(ia, ib);
-            if pc.distance < near && pc.depth >= -delta_m {
-                near = pc.distance;
-                closest = Some((pc, area_m2));
-            }
-        }
-        // Nothing closer than the nearest sample: that sample's pair holds the closest approach.
-        if closest.is_none()
-            && let Some((ia, ib)) = found.found_pair
-        {
-            let (pc, area_m2) = exact(ia, ib);
-            if pc.depth >= -delta_m {
-                closest = Some((pc, area_m2));
-            }
-        }
-        if let Some((pc, area_m2)) = closest
-            && pc.distance < found.written_m
-        {
-            f.emit(&pc, NO_FEATURE, NO_FEATURE, area_m2, out)?;
-            nearest[o as usize].written(pc.distance);
-        }
-    }
-    apart.clear();
-    Ok(())
 }

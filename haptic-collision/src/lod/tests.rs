@@ -1228,3 +1228,71 @@ fn the_budgeted_rule_refines_regions_whose_weight_the_spread_cannot_tell() {
         assert!(rel < 0.05, "gap {gap}: {fb:?} against {f0:?}, {rel}");
     }
 }
+
+/// A reported closest approach is a distance between the surfaces, never nearer than they are,
+/// whatever the threshold. Over a shallow V groove (two planes 9° apart), the stopped piece of
+/// the whole groove lies in the middle of its slab, 0.8 mm above the groove's bottom: a cube
+/// held corner down 0.5–1.8 mm over the bottom (beyond `δ` = 1 mm) is within `δ` of that piece.
+/// Written at the pieces' distance, the closest approach was a contact within `δ` where the
+/// surfaces have none, and a contact alone in a call pushes with the whole stiffness, whatever
+/// its area.
+#[test]
+fn a_closest_approach_is_never_nearer_than_the_surfaces() {
+    let (half, rise) = (0.02, 0.0016);
+    let groove = mesh(
+        vec![
+            Vec3::new(-half, -half, rise),
+            Vec3::new(0.0, -half, 0.0),
+            Vec3::new(half, -half, rise),
+            Vec3::new(-half, half, rise),
+            Vec3::new(0.0, half, 0.0),
+            Vec3::new(half, half, rise),
+        ],
+        vec![[0, 1, 4], [0, 4, 3], [1, 2, 5], [1, 5, 4]],
+    );
+    let tool = cuboid(Vec3::repeat(0.004));
+    let obstacles = vec![(groove, Pose::identity())];
+    let mut lod = LodBackend::new(&tool, &obstacles).unwrap();
+    let delta = 0.001;
+    // The cube's corner (1, 1, 1) turned to point straight down.
+    let corner = Vector3::new(1.0, 1.0, 1.0).normalize();
+    let down = UnitQuaternion::rotation_between(&corner, &-Vector3::z()).unwrap();
+    let reach = 0.004 * 3f64.sqrt();
+    let mut rng = Lcg(5);
+    let (mut exact, mut coarse) = (ContactSet::new(), ContactSet::new());
+    let (mut beyond, mut reported) = (0, 0);
+    for _ in 0..200 {
+        let height = 0.0005 + 0.0013 * rng.next();
+        let turn = UnitQuaternion::from_scaled_axis(Vector3::new(
+            0.2 * (rng.next() - 0.5),
+            0.2 * (rng.next() - 0.5),
+            std::f64::consts::TAU * rng.next(),
+        ));
+        let pose = Pose {
+            position: Vec3::new(0.004 * (rng.next() - 0.5), 0.01 * (rng.next() - 0.5), 0.0)
+                + Vec3::z() * (height + reach),
+            orientation: turn * down,
+        };
+        lod.query(&pose, &QueryParams::new(delta, 0.0).unwrap(), &mut exact)
+            .unwrap();
+        let (nearest, _) = min_distance_and_max_depth(&exact);
+        beyond += usize::from(exact.is_empty());
+        lod.query(&pose, &QueryParams::new(delta, 0.2).unwrap(), &mut coarse)
+            .unwrap();
+        for c in coarse.iter() {
+            if c.area_m2 == crate::compact::AREA_FLOOR_M2 {
+                reported += 1;
+                assert!(
+                    -c.depth_m >= nearest - 1e-9,
+                    "a closest approach at {} m, the surfaces {nearest} m apart",
+                    -c.depth_m
+                );
+            }
+        }
+    }
+    // Both cases were met: surfaces beyond `δ`, and closest approaches within it.
+    assert!(
+        beyond >= 20 && reported >= 20,
+        "{beyond} beyond, {reported} reported"
+    );
+}

@@ -1,0 +1,265 @@
+//! The closest approach: after the walk, the smallest separation between the tool's and an
+//! obstacle's surfaces, written as a contact of negligible area where it is closer than every
+//! contact written against that obstacle.
+//!
+//! A region's contact sits at its weighted mean depth, and a pair's closest points may lie
+//! beyond the obstacle piece's edges, outside every region; so the stopped pairs whose closest
+//! approach could be closer than every contact written are searched (`Scratch::apart`, and the
+//! pair whose region's nearest point was the nearest found). A stopped pair's pieces may be
+//! nearer than its surfaces by up to the two deviations (`ε` together, up to `δ`): written at
+//! the pieces' distance, the closest approach of surfaces a little beyond `δ` became a contact
+//! within it, and a contact alone in a call pushes with the whole stiffness whatever its area
+//! (the clustering's shares are relative), a force of up to `k_c ε` where there is none (the
+//! fork at the rim of the mug before it touches, errors of 1 at 10 % of the poses:
+//! `docs/experiments/lod-accuracy-and-speed-probes.md`, probe 27). So the distance written is
+//! always one between triangles, found by branch and bound on the nodes' bounding spheres and
+//! slabs:
+//! - where nothing else is written against the obstacle, the exact smallest one under every
+//!   candidate whose pieces' distance less the two deviations is below the distance found so
+//!   far, within `δ`;
+//! - beside regions, where the closest approach weighs nothing, the smallest one under the pair
+//!   whose pieces are nearest, when those are nearer than every contact written: searching
+//!   every candidate there cost the gears at 0.4 % a fifth more node pairs and twice the time.
+//!
+//! Where a written contact crosses (in contact, most calls), nothing can be closer and nothing
+//! is searched.
+
+use haptic_core::{ContactSet, NO_FEATURE, Pose, QueryStats, Real, Vec3};
+
+use super::build::{Hierarchy, Node};
+use super::query::{Frames, Nearest, Scratch, descend, place_piece};
+use super::{LodError, MAX_PIECE_VERTICES};
+use crate::compact::AREA_FLOOR_M2;
+use crate::geometry::{PairContact, convex_polygon_pair};
+
+/// The area a closest-approach contact stands for (m²): the compaction's floor, 10⁻¹⁸ m², so
+/// that it weighs nothing beside the regions; not 0, which the clustering reads as "this back-end
+/// does not measure areas" and then weighs every contact of the call alike.
+pub(crate) const CLOSEST_APPROACH_AREA_M2: Real = AREA_FLOOR_M2;
+
+/// A pair's closest approach as a contact: where the polygons cross, touching (depth 0) at the
+/// middle of their separating-axis contact, since the regions carry the force and the
+/// separating-axis depth measures the polygons' sizes rather than how far the tool went in.
+pub(crate) fn touching_if_crossing(pc: PairContact) -> PairContact {
+    if pc.depth <= 0.0 {
+        return pc;
+    }
+    let x = (pc.p_a + pc.p_b) * 0.5;
+    PairContact {
+        p_a: x,
+        p_b: x,
+        depth: 0.0,
+        distance: 0.0,
+        ..pc
+    }
+}
+
+/// The closest approach between the surfaces under the stopped pairs that could hold one closer
+/// than written (`scratch.apart`, emptied, and each obstacle's `found_pair`), one contact per
+/// obstacle where it is within `δ` and closer than every contact written against that obstacle:
+/// the exact distance between the tool's and the obstacle's triangles (0 where they cross),
+/// whatever the threshold. The contact stands for [`CLOSEST_APPROACH_AREA_M2`]: it reports the
+/// distance without adding to the force the regions integrate.
+///
+/// # Errors
+/// [`LodError::Core`] for a non-finite contact.
+pub(crate) fn closest_approaches(
+    tool: &Hierarchy,
+    obstacles: &[(Hierarchy, Pose)],
+    delta_m: Real,
+    scratch: &mut Scratch,
+    out: &mut ContactSet,
+    stats: &mut QueryStats,
+) -> Result<(), LodError> {
+    let Scratch {
+        apart,
+        nearest,
+        frames,
+        stack,
+        ..
+    } = scratch;
+    // By obstacle, so that each obstacle's closest approach is found in one run.
+    apart.sort_unstable_by_key(|&(_, o, ia, ib)| (o, ia, ib));
+    for (o, found) in nearest.iter_mut().enumerate() {
+        let run = {
+            let lo = apart.partition_point(|x| (x.1 as usize) < o);
+            let hi = apart.partition_point(|x| (x.1 as usize) <= o);
+            &apart[lo..hi]
+        };
+        let search = Search {
+            tool,
+            obs: &obstacles[o].0,
+            frames: &frames[o],
+        };
+        // A distance is never below 0: where a written contact crosses, none is closer.
+        let limit = found.written_m.min(delta_m);
+        let closest = if limit <= 0.0 || limit.is_nan() {
+            None
+        } else if found.written_m.is_finite() {
+            // Beside regions: the stopped pieces nearest each other, if nearer than written,
+            // searched down to their triangles.
+            match search.among_pieces(run, found, delta_m) {
+                Some((pc, ia, ib)) if pc.distance < found.written_m => {
+                    let mut best = (limit, None);
+                    stats.node_pairs_tested += search.from(ia, ib, stack, &mut best);
+                    best.1
+                }
+                _ => None,
+            }
+        } else {
+            search.among_triangles(run, found, limit, stack, stats)
+        };
+        if let Some(pc) = closest {
+            frames[o].emit(&pc, NO_FEATURE, NO_FEATURE, CLOSEST_APPROACH_AREA_M2, out)?;
+            found.written(pc.distance);
+        }
+    }
+    apart.clear();
+    Ok(())
+}
+
+/// The branch and bound for one obstacle's closest approach.
+struct Search<'a> {
+    tool: &'a Hierarchy,
+    obs: &'a Hierarchy,
+    frames: &'a Frames,
+}
+
+impl Search<'_> {
+    /// The stopped pieces' closest approach within `δ`, among the candidates whose lower bound
+    /// is below the nearest distance found (`found.found_m`), else that of the pair whose region
+    /// gave it: the exact distance between the pieces, within the two deviations of the
+    /// surfaces'.
+    fn among_pieces(
+        &self,
+        run: &[(Real, u32, u32, u32)],
+        found: &Nearest,
+        delta_m: Real,
+    ) -> Option<(PairContact, u32, u32)> {
+        let mut buf = [Vec3::zeros(); MAX_PIECE_VERTICES];
+        let mut pieces = |ia: u32, ib: u32| {
+            let (a, b) = (&self.tool.nodes[ia as usize], &self.obs.nodes[ib as usize]);
+            let (len, na) = place_piece(self.tool, a, self.frames, &mut buf);
+            let pc = convex_polygon_pair(&buf[..len], &na, self.obs.piece_of(b), &b.normal);
+            touching_if_crossing(pc)
+        };
+        let mut near = found.found_m;
+        let mut closest = None;
+        for &(gap, _, ia, ib) in run {
+            if gap >= near {
+                continue;
+            }
+            let pc = pieces(ia, ib);
+            if pc.distance < near && pc.depth >= -delta_m {
+                near = pc.distance;
+                closest = Some((pc, ia, ib));
+            }
+        }
+        // Nothing closer than the nearest sample: that sample's pair holds the closest approach.
+        if closest.is_none()
+            && let Some((ia, ib)) = found.found_pair
+        {
+            let pc = pieces(ia, ib);
+            if pc.depth >= -delta_m {
+                closest = Some((pc, ia, ib));
+            }
+        }
+        closest
+    }
+
+    /// The surfaces' closest approach within `δ`: the smallest distance between the triangles
+    /// under the candidates and the pair whose region gave the nearest distance found, each
+    /// searched where its lower bound (its pieces' less the two deviations, each a two-sided
+    /// Hausdorff bound) is below the distance found so far, the lowest bound first.
+    fn among_triangles(
+        &self,
+        run: &[(Real, u32, u32, u32)],
+        found: &Nearest,
+        limit_m: Real,
+        stack: &mut Vec<(u32, u32)>,
+        stats: &mut QueryStats,
+    ) -> Option<PairContact> {
+        let bound = |gap: Real, ia: u32, ib: u32| {
+            gap - self.tool.nodes[ia as usize].deviation - self.obs.nodes[ib as usize].deviation
+        };
+        let candidates = || {
+            run.iter()
+                .map(|&(gap, _, ia, ib)| (bound(gap, ia, ib), ia, ib))
+                .chain(
+                    found
+                        .found_pair
+                        .map(|(ia, ib)| (bound(found.found_m, ia, ib), ia, ib)),
+                )
+        };
+        let first = candidates().min_by(|x, y| x.0.total_cmp(&y.0))?;
+        let mut best = (limit_m, None);
+        stats.node_pairs_tested += self.from(first.1, first.2, stack, &mut best);
+        for (lower, ia, ib) in candidates() {
+            if lower < best.0 && (lower, ia, ib) != first {
+                stats.node_pairs_tested += self.from(ia, ib, stack, &mut best);
+            }
+        }
+        best.1
+    }
+
+    /// Lowers `best` (a distance and the triangle pair's closest approach there) to the smallest
+    /// distance between the triangles under `(ia, ib)`, where that is below it.
+    fn from(
+        &self,
+        ia: u32,
+        ib: u32,
+        stack: &mut Vec<(u32, u32)>,
+        best: &mut (Real, Option<PairContact>),
+    ) -> u64 {
+        let mut tested = 0;
+        let mut buf = [Vec3::zeros(); MAX_PIECE_VERTICES];
+        stack.clear();
+        stack.push((ia, ib));
+        while let Some((ia, ib)) = stack.pop() {
+            tested += 1;
+            let a = &self.tool.nodes[ia as usize];
+            let b = &self.obs.nodes[ib as usize];
+            let lower = self.lower_bound(a, b);
+            if lower >= best.0 || lower.is_nan() {
+                continue;
+            }
+            if a.is_leaf() && b.is_leaf() {
+                // A leaf's piece is its triangle.
+                let (len, na) = place_piece(self.tool, a, self.frames, &mut buf);
+                let pc = touching_if_crossing(convex_polygon_pair(
+                    &buf[..len],
+                    &na,
+                    self.obs.piece_of(b),
+                    &b.normal,
+                ));
+                if pc.distance < best.0 {
+                    *best = (pc.distance, Some(pc));
+                }
+                continue;
+            }
+            // The nearer child pair popped first, for a small bound early.
+            let at = stack.len();
+            descend(ia, a, ib, b, stack);
+            let bound = |&(ia, ib): &(u32, u32)| {
+                self.lower_bound(&self.tool.nodes[ia as usize], &self.obs.nodes[ib as usize])
+            };
+            if bound(&stack[at]) < bound(&stack[at + 1]) {
+                stack.swap(at, at + 1);
+            }
+        }
+        tested
+    }
+
+    /// A lower bound on the distance between the triangles under tool node `a` and obstacle
+    /// node `b`: their bounding spheres', or each one's sphere from the other's slab.
+    #[inline]
+    fn lower_bound(&self, a: &Node, b: &Node) -> Real {
+        let ca = self.frames.point(&a.center);
+        let spheres = (ca - b.center).norm() - a.radius - b.radius;
+        let from_b = b.normal.dot(&(ca - b.plane_point)).abs() - b.half_thickness - a.radius;
+        let na = self.frames.rot * a.normal;
+        let pa = self.frames.point(&a.plane_point);
+        let from_a = na.dot(&(b.center - pa)).abs() - a.half_thickness - b.radius;
+        spheres.max(from_b).max(from_a)
+    }
+}
