@@ -11,8 +11,10 @@
 //! Two triangles are a quad's halves when they share an edge that is the longest of both (the
 //! quad's diagonal), no third triangle uses that edge, and their normals are within the crease
 //! angle of each other (a cut along a crease keeps them apart anyway). The split by position
-//! then places both at the quad's centroid and never cuts between them. On meshes without such
-//! pairs (most triangles' longest edges are not shared as both's longest) little changes.
+//! then places both at the quad's centroid and never cuts between them. Of the repository's
+//! meshes, 54–92 % of the triangles pair up (the jaws' least, the peg's most; probe 27).
+//! Neither half of a quad is ever cut from the other by the orientation split either: a cut
+//! along a crease separates normals at least the crease angle apart.
 
 use haptic_core::{Real, Vec3};
 
