@@ -13,7 +13,7 @@
 //! fork at the rim of the mug before it touches, errors of 1 at 10 % of the poses:
 //! `docs/experiments/lod-accuracy-and-speed-probes.md`, probe 27). So the distance written is
 //! always one between triangles, found by branch and bound on the nodes' bounding spheres and
-//! slabs:
+//! slabs (the walk's cull, `query::culled`, at the distance found so far):
 //! - where nothing else is written against the obstacle, the exact smallest one under every
 //!   candidate whose pieces' distance less the two deviations is below the distance found so
 //!   far, within `δ`;
@@ -26,8 +26,8 @@
 
 use haptic_core::{ContactSet, NO_FEATURE, Pose, QueryStats, Real, Vec3};
 
-use super::build::{Hierarchy, Node};
-use super::query::{Frames, Nearest, Scratch, descend, place_piece};
+use super::build::Hierarchy;
+use super::query::{Frames, Nearest, PlacedNode, Scratch, culled, descend, place_piece};
 use super::{LodError, MAX_PIECE_VERTICES};
 use crate::compact::AREA_FLOOR_M2;
 use crate::geometry::{PairContact, convex_polygon_pair};
@@ -101,7 +101,7 @@ pub(crate) fn closest_approaches(
             match search.among_pieces(run, found, delta_m) {
                 Some((pc, ia, ib)) if pc.distance < found.written_m => {
                     let mut best = (limit, None);
-                    stats.node_pairs_tested += search.from(ia, ib, stack, &mut best);
+                    stats.node_pairs_tested += search.search_below(ia, ib, stack, &mut best);
                     best.1
                 }
                 _ => None,
@@ -193,10 +193,10 @@ impl Search<'_> {
         };
         let first = candidates().min_by(|x, y| x.0.total_cmp(&y.0))?;
         let mut best = (limit_m, None);
-        stats.node_pairs_tested += self.from(first.1, first.2, stack, &mut best);
+        stats.node_pairs_tested += self.search_below(first.1, first.2, stack, &mut best);
         for (lower, ia, ib) in candidates() {
             if lower < best.0 && (lower, ia, ib) != first {
-                stats.node_pairs_tested += self.from(ia, ib, stack, &mut best);
+                stats.node_pairs_tested += self.search_below(ia, ib, stack, &mut best);
             }
         }
         best.1
@@ -204,7 +204,7 @@ impl Search<'_> {
 
     /// Lowers `best` (a distance and the triangle pair's closest approach there) to the smallest
     /// distance between the triangles under `(ia, ib)`, where that is below it.
-    fn from(
+    fn search_below(
         &self,
         ia: u32,
         ib: u32,
@@ -213,14 +213,15 @@ impl Search<'_> {
     ) -> u64 {
         let mut tested = 0;
         let mut buf = [Vec3::zeros(); MAX_PIECE_VERTICES];
+        let mut placed = PlacedNode::NONE;
         stack.clear();
         stack.push((ia, ib));
         while let Some((ia, ib)) = stack.pop() {
             tested += 1;
             let a = &self.tool.nodes[ia as usize];
             let b = &self.obs.nodes[ib as usize];
-            let lower = self.lower_bound(a, b);
-            if lower >= best.0 || lower.is_nan() {
+            placed.place(ia, a, self.frames);
+            if culled(a, &placed, b, best.0) {
                 continue;
             }
             if a.is_leaf() && b.is_leaf() {
@@ -237,29 +238,18 @@ impl Search<'_> {
                 }
                 continue;
             }
-            // The nearer child pair popped first, for a small bound early.
+            // The child pair whose centres are nearer popped first, for a small bound early.
             let at = stack.len();
             descend(ia, a, ib, b, stack);
-            let bound = |&(ia, ib): &(u32, u32)| {
-                self.lower_bound(&self.tool.nodes[ia as usize], &self.obs.nodes[ib as usize])
+            let apart = |&(ia, ib): &(u32, u32)| {
+                (self.frames.point(&self.tool.nodes[ia as usize].center)
+                    - self.obs.nodes[ib as usize].center)
+                    .norm_squared()
             };
-            if bound(&stack[at]) < bound(&stack[at + 1]) {
+            if apart(&stack[at]) < apart(&stack[at + 1]) {
                 stack.swap(at, at + 1);
             }
         }
         tested
-    }
-
-    /// A lower bound on the distance between the triangles under tool node `a` and obstacle
-    /// node `b`: their bounding spheres', or each one's sphere from the other's slab.
-    #[inline]
-    fn lower_bound(&self, a: &Node, b: &Node) -> Real {
-        let ca = self.frames.point(&a.center);
-        let spheres = (ca - b.center).norm() - a.radius - b.radius;
-        let from_b = b.normal.dot(&(ca - b.plane_point)).abs() - b.half_thickness - a.radius;
-        let na = self.frames.rot * a.normal;
-        let pa = self.frames.point(&a.plane_point);
-        let from_a = na.dot(&(b.center - pa)).abs() - a.half_thickness - b.radius;
-        spheres.max(from_b).max(from_a)
     }
 }

@@ -16,7 +16,7 @@
 //! Neither half of a quad is ever cut from the other by the orientation split either: a cut
 //! along a crease separates normals at least the crease angle apart.
 
-use haptic_core::{Real, Vec3};
+use haptic_core::Vec3;
 
 use super::split::CREASE_ANGLE_RAD;
 
@@ -87,7 +87,7 @@ pub(super) fn positions(centroids: &[Vec3], area_normals: &[Vec3], partner: &[u3
             NONE => centroids[t],
             p => {
                 let p = p as usize;
-                let (a, b): (Real, Real) = (area_normals[t].norm(), area_normals[p].norm());
+                let (a, b) = (area_normals[t].norm(), area_normals[p].norm());
                 if a + b > 0.0 {
                     (centroids[t] * a + centroids[p] * b) / (a + b)
                 } else {

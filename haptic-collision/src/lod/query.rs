@@ -79,7 +79,7 @@ impl Frames {
 /// A tool node's bounding sphere centre and slab in the obstacle frame, placed once for the run
 /// of pairs that share the tool node (the walk descends the obstacle's node in place).
 #[derive(Debug, Clone, Copy)]
-struct PlacedNode {
+pub(crate) struct PlacedNode {
     index: u32,
     center: Vec3,
     normal: Vec3,
@@ -88,7 +88,7 @@ struct PlacedNode {
 }
 
 impl PlacedNode {
-    const NONE: Self = Self {
+    pub(crate) const NONE: Self = Self {
         index: u32::MAX,
         center: Vec3::new(0.0, 0.0, 0.0),
         normal: Vec3::new(0.0, 0.0, 0.0),
@@ -97,7 +97,7 @@ impl PlacedNode {
 
     /// Node `index` (`a`) placed by `frames`, unless it is the one already placed.
     #[inline]
-    fn place(&mut self, index: u32, a: &Node, frames: &Frames) {
+    pub(crate) fn place(&mut self, index: u32, a: &Node, frames: &Frames) {
         if self.index != index {
             let normal = frames.rot * a.normal;
             *self = Self {
@@ -112,9 +112,10 @@ impl PlacedNode {
 }
 
 /// Whether a tool node (placed in the obstacle frame) and an obstacle node are farther apart
-/// than `delta` (conservative: spheres and slabs).
+/// than `delta` (conservative: spheres and slabs). The walk's cull at `δ`, and the closest
+/// approach's bound (`closest.rs`) at the distance found so far.
 #[inline]
-fn culled(a: &Node, placed: &PlacedNode, b: &Node, delta: Real) -> bool {
+pub(crate) fn culled(a: &Node, placed: &PlacedNode, b: &Node, delta: Real) -> bool {
     let ca = &placed.center;
     let d = ca - b.center;
     let reach = a.radius + b.radius + delta;

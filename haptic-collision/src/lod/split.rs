@@ -100,10 +100,12 @@ impl Triangles<'_> {
                 .then(a.cmp(&b))
         });
         // `tris[mid]` is the first of the right part; its partner, when it comes before it,
-        // is the last of the left part: take `tris[mid]` to the left too.
+        // is the last of the left part (a quad's halves are never parted above this node, by
+        // either split): take `tris[mid]` to the left too.
         let t = tris[mid];
         let p = self.partner[t as usize];
-        if tris.len() > 2 && p < t && tris[..mid].contains(&p) {
+        debug_assert!(p == quads::NONE || tris.contains(&p), "a quad parted above");
+        if tris.len() > 2 && p < t {
             mid + 1
         } else {
             mid
