@@ -225,7 +225,8 @@ fn fraction(scale: Scale, lo: f64, hi: f64, v: f64) -> f64 {
 
 /// The legend's place: of the four corners and the middle of the right side (plotters'
 /// default), the one whose box (about 40 % of the width and 25 % of the height) holds the
-/// fewest data points, so that the legend does not hide them.
+/// fewest data points and the fewest samples of the lines between them, so that the legend
+/// hides neither.
 fn legend_position(
     chart: &Chart<'_>,
     (x0, x1): (f64, f64),
@@ -241,17 +242,31 @@ fn legend_position(
         (LowerRight, (0.6, 1.0, 0.0, 0.25)),
         (LowerLeft, (0.0, 0.4, 0.0, 0.25)),
     ];
-    let points: Vec<(f64, f64)> = series
-        .iter()
-        .flat_map(|s| s.points.iter())
-        .filter(|p| keep(chart.x_scale, p.0) && keep(chart.y_scale, p.1))
-        .map(|p| {
-            (
-                fraction(chart.x_scale, x0, x1, p.0),
-                fraction(chart.y_scale, y0, y1, p.1),
-            )
-        })
-        .collect();
+    // The points in plot fractions, and along each line between two of them (straight in
+    // those fractions, as drawn) 15 samples.
+    const SAMPLES: usize = 16;
+    let mut points: Vec<(f64, f64)> = Vec::new();
+    for s in series {
+        let placed: Vec<(f64, f64)> = s
+            .points
+            .iter()
+            .filter(|p| keep(chart.x_scale, p.0) && keep(chart.y_scale, p.1))
+            .map(|p| {
+                (
+                    fraction(chart.x_scale, x0, x1, p.0),
+                    fraction(chart.y_scale, y0, y1, p.1),
+                )
+            })
+            .collect();
+        points.extend_from_slice(&placed);
+        for w in placed.windows(2) {
+            let ((ax, ay), (bx, by)) = (w[0], w[1]);
+            points.extend((1..SAMPLES).map(|k| {
+                let t = k as f64 / SAMPLES as f64;
+                (ax + t * (bx - ax), ay + t * (by - ay))
+            }));
+        }
+    }
     let hidden = |b: &(f64, f64, f64, f64)| {
         points
             .iter()
@@ -401,9 +416,15 @@ mod tests {
         // first of those in the order tried is taken.
         let diagonal: Vec<(f64, f64)> = (1..=9).map(|k| (k as f64, k as f64)).collect();
         assert!(matches!(pos(diagonal), SeriesLabelPosition::UpperLeft));
-        // Nothing in the middle of the right side: the default stays.
+        // Nothing in the middle of the right side, points nor line: the default stays.
         assert!(matches!(
-            pos(vec![(1.0, 1.0), (100.0, 100.0), (1.0, 100.0), (100.0, 1.0)]),
+            pos(vec![(100.0, 1.0), (1.0, 1.0), (1.0, 100.0), (100.0, 100.0)]),
+            SeriesLabelPosition::MiddleRight
+        ));
+        // A line across the middle of the right side, its two points elsewhere: the legend
+        // leaves it (the peg's chart, whose legend covered its LOD line).
+        assert!(!matches!(
+            pos(vec![(1.0, 100.0), (100.0, 1.0)]),
             SeriesLabelPosition::MiddleRight
         ));
     }
