@@ -121,6 +121,12 @@ pub(crate) struct PairRegion {
     /// The smallest `|h|` over the part of `A` over `B` within `δ` (m): the exact distance from
     /// that part to `B`, 0 where they cross; infinite when there is none.
     pub nearest_m: Real,
+    /// Where all of `A` lies outside `B`'s prism, beyond one of its walls, with heights that
+    /// reach the band `|h| ≤ δ + s`: how far beyond (m; the largest distance of `A` from the
+    /// plane of a wall it lies wholly beyond, a lower bound on its distance from the prism).
+    /// Infinite otherwise. The surfaces two coarse pieces stand for may lie that much nearer
+    /// and have a region where the pieces have none (`lod::refine`).
+    pub beside_m: Real,
 }
 
 impl PairRegion {
@@ -128,6 +134,7 @@ impl PairRegion {
     const NONE: Self = Self {
         region: None,
         nearest_m: Real::INFINITY,
+        beside_m: Real::INFINITY,
     };
 }
 
@@ -168,13 +175,38 @@ pub(crate) fn pair_region(
         (p1[0] - p0[0]) * (p[1] - p0[1]) - (p1[1] - p0[1]) * (p[0] - p0[0])
     };
     // Most pairs that reach here lie beside each other, not one over the other: the whole tool
-    // polygon is outside one edge, and the clips below would end empty.
-    if (0..m).any(|i| local[..n].iter().all(|p| inside(i, p) < 0.0)) {
-        return PairRegion::NONE;
+    // polygon is outside one edge, and the clips below would end empty. How far outside is
+    // kept for the budgeted rule.
+    let s = offset.half_width_m.max(0.0);
+    let mut beside_m = Real::NEG_INFINITY;
+    for i in 0..m {
+        // `inside` is the distance from the wall's plane times the edge's length.
+        let outside = local[..n]
+            .iter()
+            .map(|p| -inside(i, p))
+            .fold(Real::INFINITY, Real::min);
+        if outside > 0.0 {
+            let (p0, p1) = (corners[i], corners[(i + 1) % m]);
+            let length = (p1[0] - p0[0]).hypot(p1[1] - p0[1]);
+            if length > 0.0 {
+                beside_m = beside_m.max(outside / length);
+            }
+        }
+    }
+    if beside_m > 0.0 {
+        let (lo, hi) = local[..n]
+            .iter()
+            .fold((Real::INFINITY, Real::NEG_INFINITY), |(l, h), p| {
+                (l.min(p[2]), h.max(p[2]))
+            });
+        let reaches = hi >= -delta_m - s && lo <= delta_m + s;
+        return PairRegion {
+            beside_m: if reaches { beside_m } else { Real::INFINITY },
+            ..PairRegion::NONE
+        };
     }
     let mut poly: Poly = ([[0.0; 3]; MAX_CLIPPED], n);
     poly.0[..n].copy_from_slice(&local[..n]);
-    let s = offset.half_width_m.max(0.0);
     let mut tmp: Poly = ([[0.0; 3]; MAX_CLIPPED], 0);
     // The slab first, then the prism's walls. Ping-pong between the two buffers by reference
     // (swapping the buffers themselves moved 368 bytes three times per wall, an eighth of this
@@ -525,6 +557,47 @@ mod tests {
         // Crossing pieces are neither.
         let crossing = region(-0.2e-3);
         assert!(!crossing.pieces_apart && !crossing.pieces_beyond(DELTA));
+    }
+
+    /// A vertical tool square standing beside a floor square (edge-on), `x` beyond its edge
+    /// at `x = 0`: no region, and how far beside it lies, where its heights reach the band.
+    #[test]
+    fn a_piece_beside_a_prism_says_how_far() {
+        let floor = [
+            Vec3::new(-0.01, -0.01, 0.0),
+            Vec3::new(0.0, -0.01, 0.0),
+            Vec3::new(0.0, 0.01, 0.0),
+            Vec3::new(-0.01, 0.01, 0.0),
+        ];
+        let wall = |x: Real, z: Real| {
+            [
+                Vec3::new(x, -0.005, z - 0.002),
+                Vec3::new(x, 0.005, z - 0.002),
+                Vec3::new(x, 0.005, z + 0.002),
+                Vec3::new(x, -0.005, z + 0.002),
+            ]
+        };
+        let nb = Vec3::z();
+        let at = |x, z| pair_region(&wall(x, z), &floor, &nb, DELTA, HeightOffset::NONE);
+        let beside = at(0.3e-3, 0.0);
+        assert!(beside.region.is_none());
+        assert!(
+            (beside.beside_m - 0.3e-3).abs() < 1e-12,
+            "{}",
+            beside.beside_m
+        );
+        // Its heights out of the band: not within reach whatever its place.
+        assert_eq!(at(0.3e-3, 0.0035).beside_m, Real::INFINITY);
+        // Within the prism: the band 2δ tall along the wall is its region, and it is not
+        // beside; nor is a wall tilted across the prism's wall.
+        let inside = at(-0.3e-3, 0.0);
+        assert!(inside.region.is_some() && inside.beside_m == Real::INFINITY);
+        let tilted: Vec<Vec3> = wall(0.0, 0.0)
+            .iter()
+            .map(|v| v - Vec3::new(0.1 * v.z, 0.0, 0.0))
+            .collect();
+        let r = pair_region(&tilted, &floor, &nb, DELTA, HeightOffset::NONE);
+        assert!(r.region.is_some() && r.beside_m == Real::INFINITY);
     }
 
     /// A tilted tool square over a floor, partly beyond δ and partly below the floor: the same

@@ -5,7 +5,7 @@ use haptic_core::{
 };
 
 use super::build::{Hierarchy, Node, PieceBall};
-use super::refine::{Written, refine_regions};
+use super::refine::{Written, refine_regions, weight_unsure};
 use super::{LodError, MAX_PIECE_VERTICES};
 use crate::geometry::PairContact;
 use crate::slab::{HeightOffset, pair_region};
@@ -310,7 +310,8 @@ pub(crate) fn collide(
 pub(crate) enum Pass {
     /// Pair by pair: a region whose pieces are less coherent than `walk.min_coherence` is not
     /// written; its pair is descended (the paper's rule asks for no coherence). The walk of the
-    /// coherence rule, and the walk below the regions the budgeted rule refines.
+    /// coherence rule, and the walk below the regions the budgeted rule refines, where a region
+    /// whose weight is unsure (`refine::weight_unsure`) is descended too.
     PairByPair,
     /// Every region is written whatever its pieces' coherence, and noted in `scratch.written`
     /// for the refinement to choose from (`refine.rs`): the budgeted rule's first walk.
@@ -392,11 +393,27 @@ pub(crate) fn walk_from_stack(
             stats.primitive_pairs_tested += 1;
             let (ma, mb, offset) = early.unwrap_or_else(|| offset(ia, ib));
             let regions = pair_region(&buf[..len], pb, &b.normal, delta, offset);
+            // The budgeted rule: pieces that do not face each other and do not stand exactly
+            // for their surfaces put a region where those surfaces may have none, or none
+            // where they may have one (`refine.rs`). Beside the obstacle piece's prism within
+            // their deviations, such a pair is descended; pair by pair, so is its region.
+            let unsure = walk.refine
+                && !(leaf_a && leaf_b)
+                && weight_unsure(
+                    na.dot(&b.normal),
+                    a.deviation + b.deviation,
+                    ma.cover * mb.cover,
+                );
+            if unsure && regions.region.is_none() && regions.beside_m < a.deviation + b.deviation {
+                descend(ia, a, ib, b, stack);
+                continue;
+            }
             // The coherence rule (`stopping.rs`): a contact between pieces whose surfaces face
             // too many ways is not written; the pair is descended like any other.
             if regions.region.is_some()
                 && !(leaf_a && leaf_b)
-                && ma.coherence.min(mb.coherence) < min_coherence
+                && (ma.coherence.min(mb.coherence) < min_coherence
+                    || (unsure && pass == Pass::PairByPair))
             {
                 descend(ia, a, ib, b, stack);
                 continue;
@@ -425,6 +442,7 @@ pub(crate) fn walk_from_stack(
                         (coherence, offset.half_width_m, ma.cover * mb.cover),
                         &pc.n,
                         r.pieces_beyond(delta) && coherence < walk.min_coherence,
+                        unsure,
                     ));
                 }
                 frames.emit(&pc, fa, fb, area_m2, out)?;

@@ -52,11 +52,45 @@
 //! marking them too took 227 of the 262 regions a jaws query refined at 2.5 %, for 14 % more
 //! instructions; over the suite it made the fork's p90 0.036 rather than 0.081 and the spoon
 //! in the mug's median 0.058 rather than 0.049 (`docs/decisions.md`, twenty-third session).
+//!
+//! And one kind of region has a weight no spread can tell: that of coarse pieces that do not
+//! face each other ([`weight_unsure`]: their normals more than 75° from opposed) and do not
+//! stand exactly for their surfaces (a deviation, or a cover short of 1). Edge-on, the tool
+//! piece crosses the obstacle piece's prism, and its region is a band `2δ` tall along the
+//! prism's wall, whose place the piece knows only within its deviation: a round peg's wall
+//! beside its hole's rim is in the convex pieces' prisms where they overhang the opening (and
+//! the surface is not there), or beside them where they stop short of the rim (and it is).
+//! Facing the same way, the tool piece lies behind the obstacle's surface, where the weight
+//! jumps from `2δ` to 0 at the penalty's lower cut (a bolt's flank behind the nut's other
+//! flank). The region is then all there or all missing, and the regions of one rim or one
+//! flank err the same way: its weight is its bound, added to the direction bounds, not in
+//! quadrature. Such a pair whose tool piece lies beside the obstacle piece's prism, by less
+//! than the two deviations (`slab::PairRegion::beside_m`), is descended rather than dropped,
+//! and pair by pair (below a region taken out) its region is not written but descended,
+//! down to pieces that stand for their surfaces or face each other. The suite's peg in its
+//! hole at 2.5 %: 0.199 / 0.312 → 0.117 / 0.284 (median / p90), the bolt in its nut 0.106 /
+//! 0.128 → 0.037 / 0.080 and 0.068 / 0.098 → 0.040 / 0.057 on its fine tessellation, for 9 %
+//! more node pairs a jaws query (`docs/experiments/lod-accuracy-and-speed-probes.md`, probe 28).
 
 use haptic_core::{ContactSet, QueryStats, Real, Vec3};
 
 use super::LodError;
 use super::query::{Pass, Scratch, Walk, descend, walk_from_stack};
+
+/// The cosine of the largest angle from opposed at which two pieces face each other: 75°.
+/// Beyond it, a region is mostly a band along the obstacle prism's wall, or lies behind the
+/// obstacle's surface. (Over the quick suite, 60° and 85° gave the same errors; 30° took 45 %
+/// more node pairs a jaws query for the same.)
+pub(crate) const FACING_COS: Real = 0.258_819_045_102_520_8;
+
+/// Whether the weight of a coarse pair's region is unsure as a whole (see the module docs): the
+/// pieces, of normals whose dot product is `cos_ab`, do not face each other (more than 75°
+/// from opposed), and do not stand exactly for their surfaces (`deviation_sum_m`, the two
+/// deviations added, above 0, or `cover`, the two covers multiplied, below 1).
+#[inline]
+pub(crate) fn weight_unsure(cos_ab: Real, deviation_sum_m: Real, cover: Real) -> bool {
+    cos_ab > -FACING_COS && (deviation_sum_m > 0.0 || cover < 1.0)
+}
 
 /// A region the walk wrote, for the refinement to choose from.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -66,7 +100,8 @@ pub(crate) struct Written {
     /// The pair (tool node, obstacle node) that wrote it.
     pub pair: (u32, u32),
     /// The bound on its force's direction error, `w (1 − c)` (m³: the penalty's weight `∫g`, a
-    /// force over the stiffness).
+    /// force over the stiffness), or its whole weight `w` where that is unsure
+    /// ([`weight_unsure`]).
     pub bound: Real,
     /// The estimate of its weight's error, `a s + w (1 − k)` (m³): the weight's change were the
     /// surfaces a half-width `s` nearer or farther than the spread `w` was averaged over (`a`
@@ -86,7 +121,7 @@ impl Written {
     /// over the area `area_m2`, its pieces' lesser normal coherence `coherence`, their
     /// surfaces' height half-width `spread_m` ([`crate::slab::HeightOffset`]) and the share
     /// `cover` of the pieces their surfaces cover (the two covers multiplied); `always` refined
-    /// or by the budget.
+    /// or by the budget; `unsure` whether its weight is unsure as a whole ([`weight_unsure`]).
     #[inline]
     pub fn of(
         index: usize,
@@ -95,11 +130,13 @@ impl Written {
         (coherence, spread_m, cover): (Real, Real, Real),
         n: &Vec3,
         always: bool,
+        unsure: bool,
     ) -> Self {
+        let direction = w * (1.0 - coherence).max(0.0);
         Self {
             index: index as u32,
             pair,
-            bound: w * (1.0 - coherence).max(0.0),
+            bound: if unsure { direction.max(w) } else { direction },
             weight_bound: area_m2 * spread_m.max(0.0) + w * (1.0 - cover).clamp(0.0, 1.0),
             force: n * w,
             always,
@@ -234,12 +271,56 @@ mod tests {
     /// a triangle pair (`c = 1`, no spread, covered) has neither.
     #[test]
     fn a_regions_bound_adds_its_weights_error_to_its_directions() {
-        let w = Written::of(7, (1, 2), (2.0, 3.0), (0.9, 0.5, 0.75), &Vec3::z(), false);
+        let w = Written::of(
+            7,
+            (1, 2),
+            (2.0, 3.0),
+            (0.9, 0.5, 0.75),
+            &Vec3::z(),
+            false,
+            false,
+        );
         assert!((w.bound - 2.0 * 0.1).abs() < 1e-12, "{}", w.bound);
         assert_eq!(w.weight_bound, 3.0 * 0.5 + 2.0 * 0.25);
         assert_eq!(w.force, Vec3::new(0.0, 0.0, 2.0));
-        let triangles = Written::of(7, (1, 2), (2.0, 3.0), (1.0, 0.0, 1.0), &Vec3::z(), false);
+        let triangles = Written::of(
+            7,
+            (1, 2),
+            (2.0, 3.0),
+            (1.0, 0.0, 1.0),
+            &Vec3::z(),
+            false,
+            false,
+        );
         assert_eq!((triangles.bound, triangles.weight_bound), (0.0, 0.0));
+        // An unsure weight is a bound as a whole, added like the direction's.
+        let unsure = Written::of(
+            7,
+            (1, 2),
+            (2.0, 3.0),
+            (0.9, 0.5, 0.75),
+            &Vec3::z(),
+            false,
+            true,
+        );
+        assert_eq!(unsure.bound, 2.0);
+        assert_eq!(unsure.weight_bound, w.weight_bound);
+    }
+
+    /// Pieces are unsure of their region's weight where they neither face each other nor stand
+    /// exactly for their surfaces.
+    #[test]
+    fn a_weight_is_unsure_where_inexact_pieces_do_not_face_each_other() {
+        // Opposed, or within 75° of it: sure.
+        assert!(!weight_unsure(-1.0, 1e-4, 0.5));
+        assert!(!weight_unsure(-0.3, 1e-4, 0.5));
+        // Edge-on, or facing the same way, with a deviation or a cover short of 1: unsure.
+        assert!(weight_unsure(0.0, 1e-4, 1.0));
+        assert!(weight_unsure(0.0, 0.0, 0.9));
+        assert!(weight_unsure(0.9, 1e-4, 1.0));
+        // Exact pieces (flat, convex, covered): sure whichever way they face.
+        assert!(!weight_unsure(0.0, 0.0, 1.0));
+        assert!(!weight_unsure(1.0, 0.0, 1.0));
     }
 
     /// Weight errors add in quadrature, direction bounds linearly: four weight errors of 1
