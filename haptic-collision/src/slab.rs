@@ -121,12 +121,6 @@ pub(crate) struct PairRegion {
     /// The smallest `|h|` over the part of `A` over `B` within `δ` (m): the exact distance from
     /// that part to `B`, 0 where they cross; infinite when there is none.
     pub nearest_m: Real,
-    /// Where all of `A` lies outside `B`'s prism, beyond one of its walls, with heights that
-    /// reach the band `|h| ≤ δ + s`: how far beyond (m; the largest distance of `A` from the
-    /// plane of a wall it lies wholly beyond, a lower bound on its distance from the prism).
-    /// Infinite otherwise. The surfaces two coarse pieces stand for may lie that much nearer
-    /// and have a region where the pieces have none (`lod::refine`).
-    pub beside_m: Real,
 }
 
 impl PairRegion {
@@ -134,7 +128,6 @@ impl PairRegion {
     const NONE: Self = Self {
         region: None,
         nearest_m: Real::INFINITY,
-        beside_m: Real::INFINITY,
     };
 }
 
@@ -175,38 +168,13 @@ pub(crate) fn pair_region(
         (p1[0] - p0[0]) * (p[1] - p0[1]) - (p1[1] - p0[1]) * (p[0] - p0[0])
     };
     // Most pairs that reach here lie beside each other, not one over the other: the whole tool
-    // polygon is outside one edge, and the clips below would end empty. How far outside is
-    // kept for the budgeted rule.
-    let s = offset.half_width_m.max(0.0);
-    let mut beside_m = Real::NEG_INFINITY;
-    for i in 0..m {
-        // `inside` is the distance from the wall's plane times the edge's length.
-        let outside = local[..n]
-            .iter()
-            .map(|p| -inside(i, p))
-            .fold(Real::INFINITY, Real::min);
-        if outside > 0.0 {
-            let (p0, p1) = (corners[i], corners[(i + 1) % m]);
-            let length = (p1[0] - p0[0]).hypot(p1[1] - p0[1]);
-            if length > 0.0 {
-                beside_m = beside_m.max(outside / length);
-            }
-        }
-    }
-    if beside_m > 0.0 {
-        let (lo, hi) = local[..n]
-            .iter()
-            .fold((Real::INFINITY, Real::NEG_INFINITY), |(l, h), p| {
-                (l.min(p[2]), h.max(p[2]))
-            });
-        let reaches = hi >= -delta_m - s && lo <= delta_m + s;
-        return PairRegion {
-            beside_m: if reaches { beside_m } else { Real::INFINITY },
-            ..PairRegion::NONE
-        };
+    // polygon is outside one edge, and the clips below would end empty.
+    if (0..m).any(|i| local[..n].iter().all(|p| inside(i, p) < 0.0)) {
+        return PairRegion::NONE;
     }
     let mut poly: Poly = ([[0.0; 3]; MAX_CLIPPED], n);
     poly.0[..n].copy_from_slice(&local[..n]);
+    let s = offset.half_width_m.max(0.0);
     let mut tmp: Poly = ([[0.0; 3]; MAX_CLIPPED], 0);
     // The slab first, then the prism's walls. Ping-pong between the two buffers by reference
     // (swapping the buffers themselves moved 368 bytes three times per wall, an eighth of this
@@ -270,6 +238,47 @@ pub(crate) fn pair_region(
         depth_m,
     });
     out
+}
+
+/// How far tool polygon `a` lies beside obstacle polygon `b`'s prism (unit normal `nb`, `b`
+/// counter-clockwise about it), where all of `a` lies beyond one of its walls with heights
+/// within `reach_m` of `b`'s plane (m): the largest distance of `a` from the plane of a wall
+/// it lies wholly beyond, a lower bound on its distance from the prism. Infinite where `a`
+/// is over `b` in part, or out of reach in height. The surfaces two coarse pieces stand for
+/// may lie that much nearer than the pieces, and have a region where the pieces have none
+/// (`lod::refine`).
+pub(crate) fn beside_prism_m(a: &[Vec3], b: &[Vec3], nb: &Vec3, reach_m: Real) -> Real {
+    let origin = b[0];
+    let (lo, hi) = a
+        .iter()
+        .fold((Real::INFINITY, Real::NEG_INFINITY), |(l, h), v| {
+            let z = nb.dot(&(v - origin));
+            (l.min(z), h.max(z))
+        });
+    if !(hi >= -reach_m && lo <= reach_m) {
+        return Real::INFINITY;
+    }
+    // Outside an edge `p0 p1` of `b` (counter-clockwise about `nb`): `(p1 − p0) × (p − p0)`
+    // along `nb` negative, its size the distance from the wall's plane times the edge's length.
+    let mut beside_m = Real::NEG_INFINITY;
+    for (i, p0) in b.iter().enumerate() {
+        let edge = b[(i + 1) % b.len()] - p0;
+        let wall = edge.cross(nb);
+        let length = wall.norm();
+        if length <= 0.0 {
+            continue;
+        }
+        let outside = a
+            .iter()
+            .map(|v| wall.dot(&(v - p0)))
+            .fold(Real::INFINITY, Real::min);
+        beside_m = beside_m.max(outside / length);
+    }
+    if beside_m > 0.0 {
+        beside_m
+    } else {
+        Real::INFINITY
+    }
 }
 
 /// The penalty's weight `w(h) = δ − h` (0 above `δ`) at a piece's height `h`, averaged over where
@@ -560,7 +569,7 @@ mod tests {
     }
 
     /// A vertical tool square standing beside a floor square (edge-on), `x` beyond its edge
-    /// at `x = 0`: no region, and how far beside it lies, where its heights reach the band.
+    /// at `x = 0`: how far beside it lies, where its heights reach the band.
     #[test]
     fn a_piece_beside_a_prism_says_how_far() {
         let floor = [
@@ -578,26 +587,34 @@ mod tests {
             ]
         };
         let nb = Vec3::z();
-        let at = |x, z| pair_region(&wall(x, z), &floor, &nb, DELTA, HeightOffset::NONE);
-        let beside = at(0.3e-3, 0.0);
-        assert!(beside.region.is_none());
+        let beside = |x, z| beside_prism_m(&wall(x, z), &floor, &nb, DELTA);
         assert!(
-            (beside.beside_m - 0.3e-3).abs() < 1e-12,
-            "{}",
-            beside.beside_m
+            pair_region(&wall(0.3e-3, 0.0), &floor, &nb, DELTA, HeightOffset::NONE)
+                .region
+                .is_none()
         );
+        assert!((beside(0.3e-3, 0.0) - 0.3e-3).abs() < 1e-12);
+        // Beyond a corner: the larger of its distances from the two walls' planes.
+        let corner: Vec<Vec3> = wall(0.3e-3, 0.0)
+            .iter()
+            .map(|v| v + Vec3::new(0.0, 0.0152, 0.0))
+            .collect();
+        assert!((beside_prism_m(&corner, &floor, &nb, DELTA) - 0.3e-3).abs() < 1e-12);
         // Its heights out of the band: not within reach whatever its place.
-        assert_eq!(at(0.3e-3, 0.0035).beside_m, Real::INFINITY);
-        // Within the prism: the band 2δ tall along the wall is its region, and it is not
+        assert_eq!(beside(0.3e-3, 0.0035), Real::INFINITY);
+        // Within the prism, the band 2δ tall along the wall is its region, and it is not
         // beside; nor is a wall tilted across the prism's wall.
-        let inside = at(-0.3e-3, 0.0);
-        assert!(inside.region.is_some() && inside.beside_m == Real::INFINITY);
+        assert!(
+            pair_region(&wall(-0.3e-3, 0.0), &floor, &nb, DELTA, HeightOffset::NONE)
+                .region
+                .is_some()
+        );
+        assert_eq!(beside(-0.3e-3, 0.0), Real::INFINITY);
         let tilted: Vec<Vec3> = wall(0.0, 0.0)
             .iter()
             .map(|v| v - Vec3::new(0.1 * v.z, 0.0, 0.0))
             .collect();
-        let r = pair_region(&tilted, &floor, &nb, DELTA, HeightOffset::NONE);
-        assert!(r.region.is_some() && r.beside_m == Real::INFINITY);
+        assert_eq!(beside_prism_m(&tilted, &floor, &nb, DELTA), Real::INFINITY);
     }
 
     /// A tilted tool square over a floor, partly beyond δ and partly below the floor: the same

@@ -8,7 +8,7 @@ use super::build::{Hierarchy, Node, PieceBall};
 use super::refine::{Written, refine_regions, weight_unsure};
 use super::{LodError, MAX_PIECE_VERTICES};
 use crate::geometry::PairContact;
-use crate::slab::{HeightOffset, pair_region};
+use crate::slab::{HeightOffset, beside_prism_m, pair_region};
 
 /// The rigid map from the tool's body frame to one obstacle's mesh frame, and what is needed to
 /// write contacts in the world frame.
@@ -404,7 +404,11 @@ pub(crate) fn walk_from_stack(
                     a.deviation + b.deviation,
                     ma.cover * mb.cover,
                 );
-            if unsure && regions.region.is_none() && regions.beside_m < a.deviation + b.deviation {
+            if unsure
+                && regions.region.is_none()
+                && beside_prism_m(&buf[..len], pb, &b.normal, delta + offset.reach_m())
+                    < a.deviation + b.deviation
+            {
                 descend(ia, a, ib, b, stack);
                 continue;
             }

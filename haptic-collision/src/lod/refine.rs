@@ -65,7 +65,7 @@
 //! flank). The region is then all there or all missing, and the regions of one rim or one
 //! flank err the same way: its weight is its bound, added to the direction bounds, not in
 //! quadrature. Such a pair whose tool piece lies beside the obstacle piece's prism, by less
-//! than the two deviations (`slab::PairRegion::beside_m`), is descended rather than dropped,
+//! than the two deviations (`slab::beside_prism_m`), is descended rather than dropped,
 //! and pair by pair (below a region taken out) its region is not written but descended,
 //! down to pieces that stand for their surfaces or face each other. The suite's peg in its
 //! hole at 2.5 %: 0.199 / 0.312 → 0.117 / 0.284 (median / p90), the bolt in its nut 0.106 /

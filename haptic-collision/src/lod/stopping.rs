@@ -75,7 +75,10 @@ pub enum StoppingRule {
     /// of the net force (`ε / tool radius` of `|Σ w n|`, per obstacle). A region whose pieces lie
     /// beyond `δ` of each other (within reach only through the surfaces they stand for) and are
     /// less coherent than the condition asks is refined whatever the budget: its weight, next to
-    /// nothing, says nothing of what those surfaces push. Nearly as accurate as
+    /// nothing, says nothing of what those surfaces push; nor does the weight of coarse pieces
+    /// that do not face each other (edge-on, or the tool behind the obstacle's surface) and do
+    /// not stand exactly for their surfaces, which is all there or all missing: it counts whole
+    /// in the bound, and is descended pair by pair. Nearly as accurate as
     /// [`StoppingRule::DeviationAndCoherence`] where the net force is not a small residual of
     /// opposed ones, at much less of its cost where many small coarse regions touch (the jaws).
     /// The default: of the three, the one whose error at a threshold depends least on the
