@@ -70,7 +70,8 @@
 //! down to pieces that stand for their surfaces or face each other. The suite's peg in its
 //! hole at 2.5 %: 0.199 / 0.312 → 0.117 / 0.284 (median / p90), the bolt in its nut 0.106 /
 //! 0.128 → 0.037 / 0.080 and 0.068 / 0.098 → 0.040 / 0.057 on its fine tessellation, for 9 %
-//! more node pairs a jaws query (`docs/experiments/lod-accuracy-and-speed-probes.md`, probe 28).
+//! more node pairs and 43 % more instructions a jaws query, whose error did not need it
+//! (`docs/experiments/lod-accuracy-and-speed-probes.md`, probe 28).
 
 use haptic_core::{ContactSet, QueryStats, Real, Vec3};
 
