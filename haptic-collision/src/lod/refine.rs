@@ -272,38 +272,18 @@ mod tests {
     /// a triangle pair (`c = 1`, no spread, covered) has neither.
     #[test]
     fn a_regions_bound_adds_its_weights_error_to_its_directions() {
-        let w = Written::of(
-            7,
-            (1, 2),
-            (2.0, 3.0),
-            (0.9, 0.5, 0.75),
-            &Vec3::z(),
-            false,
-            false,
-        );
+        // Weight 2 over 3 m², its pieces' coherence, spread and cover `m`.
+        let of = |m: (Real, Real, Real), unsure: bool| {
+            Written::of(7, (1, 2), (2.0, 3.0), m, &Vec3::z(), false, unsure)
+        };
+        let w = of((0.9, 0.5, 0.75), false);
         assert!((w.bound - 2.0 * 0.1).abs() < 1e-12, "{}", w.bound);
         assert_eq!(w.weight_bound, 3.0 * 0.5 + 2.0 * 0.25);
         assert_eq!(w.force, Vec3::new(0.0, 0.0, 2.0));
-        let triangles = Written::of(
-            7,
-            (1, 2),
-            (2.0, 3.0),
-            (1.0, 0.0, 1.0),
-            &Vec3::z(),
-            false,
-            false,
-        );
+        let triangles = of((1.0, 0.0, 1.0), false);
         assert_eq!((triangles.bound, triangles.weight_bound), (0.0, 0.0));
         // An unsure weight is a bound as a whole, added like the direction's.
-        let unsure = Written::of(
-            7,
-            (1, 2),
-            (2.0, 3.0),
-            (0.9, 0.5, 0.75),
-            &Vec3::z(),
-            false,
-            true,
-        );
+        let unsure = of((0.9, 0.5, 0.75), true);
         assert_eq!(unsure.bound, 2.0);
         assert_eq!(unsure.weight_bound, w.weight_bound);
     }
