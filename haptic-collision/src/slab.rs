@@ -244,9 +244,12 @@ pub(crate) fn pair_region(
 /// counter-clockwise about it), where all of `a` lies beyond one of its walls with heights
 /// within `reach_m` of `b`'s plane (m): the largest distance of `a` from the plane of a wall
 /// it lies wholly beyond, a lower bound on its distance from the prism. Infinite where `a`
-/// is over `b` in part, or out of reach in height. The surfaces two coarse pieces stand for
-/// may lie that much nearer than the pieces, and have a region where the pieces have none
-/// (`lod::refine`).
+/// is over `b` in part, wholly beyond none of its walls (past a corner, across it), or out of
+/// reach in height. The surfaces two coarse pieces stand for may lie that much nearer than the
+/// pieces, and have a region where the pieces have none (`lod::refine`). (The true distance
+/// between the two shadows, 0 where they overlap, found more of the peg's rim but cost a third
+/// more instructions a jaws query: `docs/experiments/lod-accuracy-and-speed-probes.md`, probe
+/// 28.)
 pub(crate) fn beside_prism_m(a: &[Vec3], b: &[Vec3], nb: &Vec3, reach_m: Real) -> Real {
     let origin = b[0];
     let (lo, hi) = a
