@@ -425,6 +425,7 @@ impl CollisionBackend for LodBackend {
                 min_coherence: self.stopping_rule.min_coherence(epsilon_m, radius_m),
                 cull_at_surfaces: self.stopping_rule.culls_at_surfaces(),
                 refine: self.stopping_rule.refines_regions(),
+                weight_error_per_weight: Real::INFINITY,
             };
             collide(&walk, &mut self.scratch, out, &mut stats)?;
         }

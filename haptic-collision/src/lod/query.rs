@@ -5,10 +5,10 @@ use haptic_core::{
 };
 
 use super::build::{Hierarchy, Node, PieceBall};
-use super::refine::{Written, refine_regions, weight_unsure};
+use super::refine::{Written, refine_regions, weight_error_m3, weight_unsure};
 use super::{LodError, MAX_PIECE_VERTICES};
 use crate::geometry::PairContact;
-use crate::slab::{HeightOffset, beside_prism_m, pair_region};
+use crate::slab::{HeightOffset, RegionContact, beside_prism_m, pair_region};
 
 /// The rigid map from the tool's body frame to one obstacle's mesh frame, and what is needed to
 /// write contacts in the world frame.
@@ -198,6 +198,7 @@ fn apart_along(a: &[Vec3], b: &[Vec3], from: &Vec3, to: &Vec3, delta: Real) -> b
 }
 
 /// What one traversal of the tool against one obstacle needs.
+#[derive(Clone, Copy)]
 pub(crate) struct Walk<'a> {
     /// The tool's hierarchy.
     pub tool: &'a Hierarchy,
@@ -222,6 +223,10 @@ pub(crate) struct Walk<'a> {
     /// of the surfaces they stand for, lie beyond δ, rather than the pieces themselves
     /// ([`super::StoppingRule::culls_at_surfaces`]).
     pub cull_at_surfaces: bool,
+    /// Pair by pair below the regions taken out (`refine.rs`), the largest weight error a
+    /// region may have per unit of its weight, `ρ`: a coarse pair whose region's is larger is
+    /// descended. Infinite elsewhere.
+    pub weight_error_per_weight: Real,
 }
 
 /// Scratch reused by every query, so that a query allocates nothing once warm.
@@ -413,11 +418,21 @@ pub(crate) fn walk_from_stack(
                 continue;
             }
             // The coherence rule (`stopping.rs`): a contact between pieces whose surfaces face
-            // too many ways is not written; the pair is descended like any other.
+            // too many ways is not written; the pair is descended like any other. Below a
+            // region taken out, so is one whose weight is less sure than its share of the
+            // budget allows (`refine.rs`).
+            let weight_loose = |r: &RegionContact| {
+                let cover = ma.cover * mb.cover;
+                let area_m2 = r.area_m2 * cover;
+                let w = area_m2 * gap_weight_m(r.depth_m, delta);
+                weight_error_m3(w, area_m2, offset.half_width_m, cover)
+                    > walk.weight_error_per_weight * w
+            };
             if regions.region.is_some()
                 && !(leaf_a && leaf_b)
                 && (ma.coherence.min(mb.coherence) < min_coherence
-                    || (unsure && pass == Pass::PairByPair))
+                    || (pass == Pass::PairByPair
+                        && (unsure || regions.region.as_ref().is_some_and(weight_loose))))
             {
                 descend(ia, a, ib, b, stack);
                 continue;

@@ -1374,3 +1374,71 @@ fn the_budgeted_rule_finds_where_a_wall_crosses_a_rim() {
         assert!(2 * n < all_pairs, "{n} node pairs against {all_pairs} at 0");
     }
 }
+
+/// A tube's inner wall of radius `r`, from z = 0 to `h`, facing its axis: `rows` rows of
+/// `segments` quads, each split in two, the first vertex of each ring turned by 0.37 of a
+/// segment (so that no facet lines up with the x axis).
+fn tube(r: Real, h: Real, segments: usize, rows: usize) -> TriMesh {
+    let n = segments as u32;
+    let mut v = Vec::new();
+    for k in 0..=rows {
+        let z = h * k as Real / rows as Real;
+        for s in 0..segments {
+            let a = std::f64::consts::TAU * (s as Real + 0.37) / segments as Real;
+            v.push(Vec3::new(r * a.cos(), r * a.sin(), z));
+        }
+    }
+    let mut t = Vec::new();
+    for k in 0..rows as u32 {
+        for s in 0..n {
+            let s1 = (s + 1) % n;
+            let (a, b, c, d) = (k * n + s, k * n + s1, (k + 1) * n + s1, (k + 1) * n + s);
+            t.push([a, c, b]);
+            t.push([a, d, c]);
+        }
+    }
+    mesh(v, t)
+}
+
+/// A round peg (radius 4 mm) inside a tube 50 µm wider, pushed 10–30 µm sideways, at three
+/// pairs of tessellations that line up nowhere (a peg of 64, 96 or 32 sides in a tube of 48,
+/// 40 or 80): the wall's contacts push nearly all ways at once and cancel, so that the net
+/// force is a small part of what the regions carry, and the budget with it. Below the
+/// regions the budget takes out, the regions written pair by pair are convex pieces of a
+/// curved patch whose weights are off by up to three times where they lie. Held to their
+/// share of the budget (`refine.rs`), the force's error at 1 % and 2.5 % is within the suite's
+/// goals: a median of 0.03 and at most 0.075 of the all-pairs force (without that share: 0.07
+/// and 0.36, and 0.25–0.36 on the 32-sided peg at 2.5 %).
+#[test]
+fn the_budgeted_rule_holds_a_peg_in_a_tube_on_any_tessellation() {
+    let (r, clearance, delta) = (0.004, 0.00005, 0.0005);
+    let mut errors = Vec::new();
+    for (peg_sides, tube_sides, rows) in [(64, 48, 8), (96, 40, 6), (32, 80, 10)] {
+        let tool = super::testmesh::cylinder(r, 0.006, peg_sides);
+        let obstacles = vec![(
+            tube(r + clearance, 0.010, tube_sides, rows),
+            Pose::identity(),
+        )];
+        let mut reference = LodBackend::new(&tool, &obstacles)
+            .unwrap()
+            .with_max_contacts(None);
+        let mut budget = reference
+            .clone()
+            .with_max_contacts(Some(256))
+            .with_stopping_rule(StoppingRule::CoherenceBudget);
+        for (dx, dy) in [(3e-5, 0.0), (1e-5, 2e-5), (-2e-5, 5e-6)] {
+            let pose = Pose {
+                position: Vec3::new(dx, dy, 0.002),
+                orientation: UnitQuaternion::identity(),
+            };
+            let f0 = net_force(&mut reference, &pose, delta, 0.0);
+            for threshold in [0.01, 0.025] {
+                let f = net_force(&mut budget, &pose, delta, threshold);
+                errors.push((f - f0).norm() / f0.norm());
+            }
+        }
+    }
+    errors.sort_by(Real::total_cmp);
+    let (median, worst) = (errors[errors.len() / 2], errors[errors.len() - 1]);
+    assert!(median <= 0.05 && worst <= 0.10, "{errors:?}");
+}
