@@ -1442,3 +1442,75 @@ fn the_budgeted_rule_holds_a_peg_in_a_tube_on_any_tessellation() {
     let (median, worst) = (errors[errors.len() / 2], errors[errors.len() - 1]);
     assert!(median <= 0.05 && worst <= 0.10, "{errors:?}");
 }
+
+/// A square plate's top face (z = 0, facing `+z`, half-width `half_m`) around a round hole of
+/// radius `r_in`: `segments` quads from the hole's circle out to the square's boundary (each
+/// point of the circle joined to the point of the square on the same ray), each split in two.
+fn drilled_square(r_in: Real, half_m: Real, segments: usize) -> TriMesh {
+    let n = segments as u32;
+    let mut v = Vec::new();
+    for outer in [false, true] {
+        for s in 0..segments {
+            let a = std::f64::consts::TAU * (s as Real + 0.5) / segments as Real;
+            let (c, d) = (a.cos(), a.sin());
+            let r = if outer {
+                half_m / c.abs().max(d.abs())
+            } else {
+                r_in
+            };
+            v.push(Vec3::new(r * c, r * d, 0.0));
+        }
+    }
+    let mut t = Vec::new();
+    for s in 0..n {
+        let s1 = (s + 1) % n;
+        t.push([s, s1, n + s1]);
+        t.push([s, n + s1, n + s]);
+    }
+    mesh(v, t)
+}
+
+/// A round peg crossing the rim of a hole drilled in a square plate, at three tessellations
+/// of the peg (24, 64, 100 sides) and the plate (40, 48, 36 segments), pushed sideways in
+/// three directions so that its wall crosses the rim by 20 µm on one side. The plate's coarse
+/// pieces have corners at the rim, and past a corner no wall of their prisms separates them
+/// from an edge-on piece of the peg's wall: only a side of that piece's shadow tells how
+/// near it is (`slab::beside_prism_m`). Without it, the axial force of the band along the
+/// crossing was lost in part: errors of 0.09 (median) and up to 0.30 of the all-pairs force;
+/// with it, 0.016 and 0.22. (What is left: a piece of the wall over a rim piece's prism in
+/// part, whose band lies over a sliver of its length where the wall's lies over most of it,
+/// 1.6e-11 against 2.7e-10 m³; refining such regions whatever the budget made this scene
+/// exact but the suite's peg and coarse bolt worse without clustering, probe 30.)
+#[test]
+fn the_budgeted_rule_finds_a_wall_crossing_a_rim_past_the_pieces_corners() {
+    let (r, clearance, delta) = (0.004, 0.00005, 0.0005);
+    let mut errors = Vec::new();
+    for (peg_sides, plate_segments) in [(24, 40), (64, 48), (100, 36)] {
+        let tool = super::testmesh::cylinder(r, 0.006, peg_sides);
+        let plate = drilled_square(r + clearance, 0.012, plate_segments);
+        let obstacles = vec![(plate, Pose::identity())];
+        let mut reference = LodBackend::new(&tool, &obstacles)
+            .unwrap()
+            .with_max_contacts(None);
+        let mut budget = reference
+            .clone()
+            .with_max_contacts(Some(256))
+            .with_stopping_rule(StoppingRule::CoherenceBudget);
+        for angle in [0.3, 1.9, 4.0] {
+            let (c, s) = (Real::cos(angle), Real::sin(angle));
+            let pose = Pose {
+                position: Vec3::new(0.00007 * c, 0.00007 * s, -0.003),
+                orientation: UnitQuaternion::identity(),
+            };
+            let f0 = net_force(&mut reference, &pose, delta, 0.0);
+            for threshold in [0.01, 0.025] {
+                let f = net_force(&mut budget, &pose, delta, threshold);
+                errors.push(((f - f0).norm() / f0.norm(), threshold));
+            }
+        }
+    }
+    let mut sorted: Vec<Real> = errors.iter().map(|(e, _)| *e).collect();
+    sorted.sort_by(Real::total_cmp);
+    let (median, worst) = (sorted[sorted.len() / 2], sorted[sorted.len() - 1]);
+    assert!(median <= 0.05 && worst <= 0.25, "{errors:?}");
+}
