@@ -1297,16 +1297,24 @@ fn a_closest_approach_is_never_nearer_than_the_surfaces() {
     );
 }
 
-/// A flat ring in the plane z = 0, facing `+z`, between radii `r_in` and `r_out`: `segments`
-/// quads from the inner circle to the outer, each split in two (long thin triangles, as a
-/// plate's face around a drilled hole is meshed).
-fn annulus(r_in: Real, r_out: Real, segments: usize) -> TriMesh {
+/// A plate's face in the plane z = 0, facing `+z`, around a round hole of radius `r_in`:
+/// `segments` quads from the hole's circle out to `outer_m(cos, sin)` along the same ray (the
+/// ray of vertex `s` at the angle `2π (s + phase) / segments`), each split in two (long thin
+/// triangles, as a plate's face around a drilled hole is meshed).
+fn drilled_face(
+    r_in: Real,
+    segments: usize,
+    phase: Real,
+    outer_m: impl Fn(Real, Real) -> Real,
+) -> TriMesh {
     let n = segments as u32;
     let mut v = Vec::new();
-    for r in [r_in, r_out] {
+    for outer in [false, true] {
         for s in 0..segments {
-            let a = std::f64::consts::TAU * s as Real / segments as Real;
-            v.push(Vec3::new(r * a.cos(), r * a.sin(), 0.0));
+            let a = std::f64::consts::TAU * (s as Real + phase) / segments as Real;
+            let (c, d) = (a.cos(), a.sin());
+            let r = if outer { outer_m(c, d) } else { r_in };
+            v.push(Vec3::new(r * c, r * d, 0.0));
         }
     }
     let mut t = Vec::new();
@@ -1316,6 +1324,12 @@ fn annulus(r_in: Real, r_out: Real, segments: usize) -> TriMesh {
         t.push([s, n + s1, n + s]);
     }
     mesh(v, t)
+}
+
+/// A flat ring in the plane z = 0, facing `+z`, between radii `r_in` and `r_out`
+/// ([`drilled_face`]).
+fn annulus(r_in: Real, r_out: Real, segments: usize) -> TriMesh {
+    drilled_face(r_in, segments, 0.0, |_, _| r_out)
 }
 
 /// A round peg standing in a drilled hole, pushed sideways so that its wall crosses the
@@ -1411,63 +1425,59 @@ fn tube(r: Real, h: Real, segments: usize, rows: usize) -> TriMesh {
 /// and 0.36, and 0.25–0.36 on the 32-sided peg at 2.5 %).
 #[test]
 fn the_budgeted_rule_holds_a_peg_in_a_tube_on_any_tessellation() {
-    let (r, clearance, delta) = (0.004, 0.00005, 0.0005);
+    let (r, clearance) = (0.004, 0.00005);
+    let poses: Vec<Pose> = [(3e-5, 0.0), (1e-5, 2e-5), (-2e-5, 5e-6)]
+        .iter()
+        .map(|&(dx, dy)| Pose {
+            position: Vec3::new(dx, dy, 0.002),
+            orientation: UnitQuaternion::identity(),
+        })
+        .collect();
     let mut errors = Vec::new();
     for (peg_sides, tube_sides, rows) in [(64, 48, 8), (96, 40, 6), (32, 80, 10)] {
         let tool = super::testmesh::cylinder(r, 0.006, peg_sides);
-        let obstacles = vec![(
-            tube(r + clearance, 0.010, tube_sides, rows),
-            Pose::identity(),
-        )];
-        let mut reference = LodBackend::new(&tool, &obstacles)
-            .unwrap()
-            .with_max_contacts(None);
-        let mut budget = reference
-            .clone()
-            .with_max_contacts(Some(256))
-            .with_stopping_rule(StoppingRule::CoherenceBudget);
-        for (dx, dy) in [(3e-5, 0.0), (1e-5, 2e-5), (-2e-5, 5e-6)] {
-            let pose = Pose {
-                position: Vec3::new(dx, dy, 0.002),
-                orientation: UnitQuaternion::identity(),
-            };
-            let f0 = net_force(&mut reference, &pose, delta, 0.0);
-            for threshold in [0.01, 0.025] {
-                let f = net_force(&mut budget, &pose, delta, threshold);
-                errors.push((f - f0).norm() / f0.norm());
-            }
-        }
+        let obstacle = tube(r + clearance, 0.010, tube_sides, rows);
+        errors.extend(budget_errors(&tool, obstacle, &poses));
     }
-    errors.sort_by(Real::total_cmp);
-    let (median, worst) = (errors[errors.len() / 2], errors[errors.len() - 1]);
+    let (median, worst) = median_and_worst(&errors);
     assert!(median <= 0.05 && worst <= 0.10, "{errors:?}");
 }
 
-/// A square plate's top face (z = 0, facing `+z`, half-width `half_m`) around a round hole of
-/// radius `r_in`: `segments` quads from the hole's circle out to the square's boundary (each
-/// point of the circle joined to the point of the square on the same ray), each split in two.
-fn drilled_square(r_in: Real, half_m: Real, segments: usize) -> TriMesh {
-    let n = segments as u32;
-    let mut v = Vec::new();
-    for outer in [false, true] {
-        for s in 0..segments {
-            let a = std::f64::consts::TAU * (s as Real + 0.5) / segments as Real;
-            let (c, d) = (a.cos(), a.sin());
-            let r = if outer {
-                half_m / c.abs().max(d.abs())
-            } else {
-                r_in
-            };
-            v.push(Vec3::new(r * c, r * d, 0.0));
+/// The budgeted rule's error at 1 % and 2.5 % (256 contacts at most) against the all-pairs
+/// force ([`net_force`], δ = 0.5 mm), for `tool` against `obstacle` at each of `poses`.
+fn budget_errors(tool: &TriMesh, obstacle: TriMesh, poses: &[Pose]) -> Vec<Real> {
+    let delta = 0.0005;
+    let obstacles = vec![(obstacle, Pose::identity())];
+    let mut reference = LodBackend::new(tool, &obstacles)
+        .unwrap()
+        .with_max_contacts(None);
+    let mut budget = reference
+        .clone()
+        .with_max_contacts(Some(256))
+        .with_stopping_rule(StoppingRule::CoherenceBudget);
+    let mut errors = Vec::new();
+    for pose in poses {
+        let f0 = net_force(&mut reference, pose, delta, 0.0);
+        for threshold in [0.01, 0.025] {
+            let f = net_force(&mut budget, pose, delta, threshold);
+            errors.push((f - f0).norm() / f0.norm());
         }
     }
-    let mut t = Vec::new();
-    for s in 0..n {
-        let s1 = (s + 1) % n;
-        t.push([s, s1, n + s1]);
-        t.push([s, n + s1, n + s]);
-    }
-    mesh(v, t)
+    errors
+}
+
+/// The median and the largest of `errors`.
+fn median_and_worst(errors: &[Real]) -> (Real, Real) {
+    let mut sorted = errors.to_vec();
+    sorted.sort_by(Real::total_cmp);
+    (sorted[sorted.len() / 2], sorted[sorted.len() - 1])
+}
+
+/// A square plate's top face (z = 0, facing `+z`, half-width `half_m`) around a round hole of
+/// radius `r_in`, meshed out to the square's boundary, the rays half a segment off the axes
+/// ([`drilled_face`]).
+fn drilled_square(r_in: Real, half_m: Real, segments: usize) -> TriMesh {
+    drilled_face(r_in, segments, 0.5, |c, d| half_m / c.abs().max(d.abs()))
 }
 
 /// A round peg crossing the rim of a hole drilled in a square plate, at three tessellations
@@ -1483,34 +1493,20 @@ fn drilled_square(r_in: Real, half_m: Real, segments: usize) -> TriMesh {
 /// exact but the suite's peg and coarse bolt worse without clustering, probe 30.)
 #[test]
 fn the_budgeted_rule_finds_a_wall_crossing_a_rim_past_the_pieces_corners() {
-    let (r, clearance, delta) = (0.004, 0.00005, 0.0005);
+    let (r, clearance) = (0.004, 0.00005);
+    let poses: Vec<Pose> = [0.3, 1.9, 4.0]
+        .iter()
+        .map(|&angle: &Real| Pose {
+            position: Vec3::new(0.00007 * angle.cos(), 0.00007 * angle.sin(), -0.003),
+            orientation: UnitQuaternion::identity(),
+        })
+        .collect();
     let mut errors = Vec::new();
     for (peg_sides, plate_segments) in [(24, 40), (64, 48), (100, 36)] {
         let tool = super::testmesh::cylinder(r, 0.006, peg_sides);
         let plate = drilled_square(r + clearance, 0.012, plate_segments);
-        let obstacles = vec![(plate, Pose::identity())];
-        let mut reference = LodBackend::new(&tool, &obstacles)
-            .unwrap()
-            .with_max_contacts(None);
-        let mut budget = reference
-            .clone()
-            .with_max_contacts(Some(256))
-            .with_stopping_rule(StoppingRule::CoherenceBudget);
-        for angle in [0.3, 1.9, 4.0] {
-            let (c, s) = (Real::cos(angle), Real::sin(angle));
-            let pose = Pose {
-                position: Vec3::new(0.00007 * c, 0.00007 * s, -0.003),
-                orientation: UnitQuaternion::identity(),
-            };
-            let f0 = net_force(&mut reference, &pose, delta, 0.0);
-            for threshold in [0.01, 0.025] {
-                let f = net_force(&mut budget, &pose, delta, threshold);
-                errors.push(((f - f0).norm() / f0.norm(), threshold));
-            }
-        }
+        errors.extend(budget_errors(&tool, plate, &poses));
     }
-    let mut sorted: Vec<Real> = errors.iter().map(|(e, _)| *e).collect();
-    sorted.sort_by(Real::total_cmp);
-    let (median, worst) = (sorted[sorted.len() / 2], sorted[sorted.len() - 1]);
+    let (median, worst) = median_and_worst(&errors);
     assert!(median <= 0.05 && worst <= 0.25, "{errors:?}");
 }
