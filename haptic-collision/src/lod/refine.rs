@@ -56,8 +56,9 @@
 //! change elsewhere beyond the clustering's own (`docs/experiments/lod-accuracy-and-speed-probes.md`,
 //! probe 29). Descending where the weight error is a bound of `e` rather than a standard
 //! deviation of `e / √3` (the share `B` rather than `√3 B`) took 15 % more node pairs a jaws
-//! query for the same errors; `2 B`, 3 %, and `4 B`, 1 %, left the bolt's fine tessellation
-//! slightly worse (0.054 rather than 0.048 clustered, 0.091 rather than 0.079 without).
+//! query for the same errors; `2 B` took 3 % more and the same errors, `4 B` 1 % more and
+//! left the bolt's fine tessellation worse (0.054 rather than 0.048 clustered, 0.091 rather
+//! than 0.079 without).
 //!
 //! One kind of region is refined whatever the budget: one whose pieces fail the coherence
 //! condition and lie beyond `δ` of each other, within reach only through the surfaces they
