@@ -10,7 +10,8 @@
 //!   sliding within its backlash, and an M8-like threaded rod turned a full turn in its nut
 //!   (0.1 mm nominal radial clearance; the faceted threads cut the profile's corners, so the
 //!   gap between the meshes varies along the turn and may close: penetrations are part of the
-//!   scene).
+//!   scene), and a round peg in a bushing 0.1 mm wider whose walls' tessellations line up
+//!   nowhere (40 and 33 segments), its contacts all around the wall cancelling.
 //! - Per scene, parry and LOD at each threshold, as `bench collision` measures one scene; the
 //!   poses are fewer (100, `--quick`: 12) and replayed once.
 //! - `tessellation_error_rel`: for the generated pairs, per pose, `|W_fine − W_coarse| /
@@ -319,6 +320,42 @@ fn bolt_and_nut(n: usize) -> anyhow::Result<Vec<Entry>> {
     )
 }
 
+/// A round peg (8 mm) in a bushing 0.1 mm wider, their walls tessellated so that they line up
+/// nowhere: sliding ±1 mm along the axis, ±0.03 mm sideways, rocking by 0.1°.
+fn peg_in_bushing(n: usize) -> anyhow::Result<Vec<Entry>> {
+    const LENGTH: Real = 0.01;
+    generated(
+        "peg-bushing",
+        n,
+        5e-4,
+        |d| {
+            Ok((
+                shapes::round_peg(4e-3, 0.6 * LENGTH, d)?,
+                shapes::bushing(4.05e-3, 7e-3, LENGTH, d)?,
+                "a round peg (tool; 8 mm, 6 mm long, 40 sides) in a bushing 0.1 mm wider (33 sides, 10 mm long), sliding ±1 mm along its axis, ±0.03 mm sideways, rocking by 0.1°".into(),
+            ))
+        },
+        |_, _, _, n| {
+            Ok(path(
+                n,
+                Vec3::new(0.0, 0.0, 0.5 * LENGTH),
+                |s| {
+                    Vec3::new(
+                        3e-5 * s.cos(),
+                        3e-5 * (2.0 * s).sin(),
+                        1e-3 * (3.0 * s).sin(),
+                    )
+                },
+                |s| {
+                    UnitQuaternion::from_scaled_axis(
+                        Vec3::new(s.cos(), s.sin(), 0.0) * 0.1f64.to_radians(),
+                    )
+                },
+            ))
+        },
+    )
+}
+
 /// A row of `suite.json`.
 #[derive(Serialize)]
 struct SuiteRow<'a> {
@@ -435,6 +472,7 @@ pub(super) fn run(
     entries.extend(boxes(n)?);
     entries.extend(gears(n)?);
     entries.extend(bolt_and_nut(n)?);
+    entries.extend(peg_in_bushing(n)?);
 
     if let Some(only) = only {
         select(&mut entries, only)?;
@@ -634,7 +672,7 @@ pub(super) fn run(
 
 /// The generated shapes' names, as the `'static` strings their entries carry.
 fn name_static(name: &str) -> Option<&'static str> {
-    ["boxes", "gears", "bolt-nut"]
+    ["boxes", "gears", "bolt-nut", "peg-bushing"]
         .into_iter()
         .find(|n| *n == name)
 }

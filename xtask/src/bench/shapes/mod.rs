@@ -1,5 +1,5 @@
 //! Procedural closed triangle meshes for the collision benchmark suite: a box, an involute spur
-//! gear (alone or as a meshing pair), a threaded rod and its nut.
+//! gear (alone or as a meshing pair), a threaded rod and its nut, a round peg and its bushing.
 //!
 //! Every mesh is closed and watertight (every edge shared by exactly two triangles, vertices
 //! shared along seams), its triangles counter-clockwise seen from outside, and it is built with
@@ -15,8 +15,10 @@ use anyhow::{Context, ensure};
 use haptic_collision::{DegeneratePolicy, TriMesh};
 use haptic_core::{Real, Vec3};
 
+mod round;
 mod thread;
 
+pub use round::{bushing, round_peg};
 #[cfg(test)]
 use thread::ThreadProfile;
 pub use thread::{threaded_nut, threaded_rod};

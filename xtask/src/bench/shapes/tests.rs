@@ -270,6 +270,31 @@ fn rod_and_nut_vertices_lie_on_their_profiles() -> anyhow::Result<()> {
 }
 
 #[test]
+fn peg_and_bushing_are_closed_with_plausible_volume() -> anyhow::Result<()> {
+    let (r, bore, outer, length) = (4.0 * MM, 4.05 * MM, 7.0 * MM, 10.0 * MM);
+    let pegs = [round_peg(r, length, 1)?, round_peg(r, length, 2)?];
+    let bushings = [
+        bushing(bore, outer, length, 1)?,
+        bushing(bore, outer, length, 2)?,
+    ];
+    for (density, (peg, bushing)) in [1, 2].into_iter().zip(pegs.iter().zip(&bushings)) {
+        assert_closed(peg);
+        assert_closed(bushing);
+        let peg_exact = std::f64::consts::PI * r * r * length * polygon_factor(40 * density);
+        let ring = polygon_factor(33 * density) * (outer * outer - bore * bore);
+        let bushing_exact = std::f64::consts::PI * ring * length;
+        for (v, exact) in [(volume(peg)?, peg_exact), (volume(bushing)?, bushing_exact)] {
+            assert!(((v - exact) / exact).abs() < 1e-9, "volume {v} vs {exact}");
+        }
+        assert_eq!(peg.triangles().len(), 80 * density * (4 * density + 1));
+        assert_eq!(bushing.triangles().len(), 132 * density * (5 * density + 1));
+    }
+    assert_ratio(&pegs[0], &pegs[1]);
+    assert_ratio(&bushings[0], &bushings[1]);
+    Ok(())
+}
+
+#[test]
 fn bad_parameters_are_errors() {
     assert!(box_mesh(Vec3::new(1.0, 1.0, 1.0), 0).is_err());
     assert!(box_mesh(Vec3::new(1.0, -1.0, 1.0), 1).is_err());
@@ -278,6 +303,9 @@ fn bad_parameters_are_errors() {
     assert!(gear_pair(20, 35, MM, MM, -MM, 1).is_err());
     assert!(threaded_rod(3.0 * MM, 4.0 * MM, MM, 10.0 * MM, 1).is_err());
     assert!(threaded_nut(4.0 * MM, 3.2 * MM, MM, 8.0 * MM, 4.05 * MM, 0.1 * MM, 1).is_err());
+    assert!(round_peg(-MM, MM, 1).is_err());
+    assert!(bushing(5.0 * MM, 4.0 * MM, MM, 1).is_err());
+    assert!(bushing(4.0 * MM, 5.0 * MM, MM, 0).is_err());
 }
 
 /// The largest radial distance (m) from the thread surface `r(θ, z) + offset` of the points of
