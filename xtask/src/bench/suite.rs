@@ -89,6 +89,25 @@ fn path(
         .collect()
 }
 
+/// `n` poses of a round peg along z in its hole around `centre`: sliding ±1 mm along its axis
+/// and ±0.03 mm sideways, rocking by 0.1°.
+fn peg_path(n: usize, centre: Vec3) -> Vec<Pose> {
+    path(
+        n,
+        centre,
+        |s| {
+            Vec3::new(
+                3e-5 * s.cos(),
+                3e-5 * (2.0 * s).sin(),
+                1e-3 * (3.0 * s).sin(),
+            )
+        },
+        |s| {
+            UnitQuaternion::from_scaled_axis(Vec3::new(s.cos(), s.sin(), 0.0) * 0.1f64.to_radians())
+        },
+    )
+}
+
 fn file_scene(name: &str, n: usize) -> anyhow::Result<Entry> {
     let args = super::CollisionArgs {
         scene: name.to_owned(),
@@ -119,20 +138,7 @@ fn peg_in_hole(n: usize) -> anyhow::Result<Entry> {
         0.5 * (lo.y + hi.y),
         hi.z - 4e-3 - plo.z,
     );
-    let poses = path(
-        n,
-        centre,
-        |s| {
-            Vec3::new(
-                3e-5 * s.cos(),
-                3e-5 * (2.0 * s).sin(),
-                1e-3 * (3.0 * s).sin(),
-            )
-        },
-        |s| {
-            UnitQuaternion::from_scaled_axis(Vec3::new(s.cos(), s.sin(), 0.0) * 0.1f64.to_radians())
-        },
-    );
+    let poses = peg_path(n, centre);
     Ok(Entry {
         scene: Scene {
             name: "peg-in-hole".into(),
@@ -335,24 +341,7 @@ fn peg_in_bushing(n: usize) -> anyhow::Result<Vec<Entry>> {
                 "a round peg (tool; 8 mm, 6 mm long, 40 sides) in a bushing 0.1 mm wider (33 sides, 10 mm long), sliding ±1 mm along its axis, ±0.03 mm sideways, rocking by 0.1°".into(),
             ))
         },
-        |_, _, _, n| {
-            Ok(path(
-                n,
-                Vec3::new(0.0, 0.0, 0.5 * LENGTH),
-                |s| {
-                    Vec3::new(
-                        3e-5 * s.cos(),
-                        3e-5 * (2.0 * s).sin(),
-                        1e-3 * (3.0 * s).sin(),
-                    )
-                },
-                |s| {
-                    UnitQuaternion::from_scaled_axis(
-                        Vec3::new(s.cos(), s.sin(), 0.0) * 0.1f64.to_radians(),
-                    )
-                },
-            ))
-        },
+        |_, _, _, n| Ok(peg_path(n, Vec3::new(0.0, 0.0, 0.5 * LENGTH))),
     )
 }
 
