@@ -438,7 +438,7 @@ impl CollisionBackend for LodBackend {
             &mut stats,
         )?;
         if let Some(max) = self.max_contacts {
-            let found = self.compactor.compact(out, params.delta_m, max);
+            let found = self.compactor.compact(out, tool_pose, params.delta_m, max);
             stats.raw_contacts = found as u64;
         }
         Ok(stats)
