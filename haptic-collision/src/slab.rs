@@ -240,20 +240,32 @@ pub(crate) fn pair_region(
     out
 }
 
-/// How far tool polygon `a` lies beside obstacle polygon `b`'s prism (unit normal `nb`, `b`
-/// counter-clockwise about it), where `a`'s heights come within `reach_m` of `b`'s plane
-/// (m): the largest distance of `a` from the plane of a wall it lies wholly beyond, or, where
-/// it lies beyond none (past a corner), the widest gap between the two shadows on `b`'s
-/// plane across a side of `a`'s (a separating axis). Either is a lower bound on its
-/// distance from the prism. Infinite where the shadows overlap (`a` over `b` in part, or
-/// across it) or where `a` is out of reach in height. The surfaces two coarse pieces stand
-/// for may lie that much nearer than the pieces, and have a region where the pieces have
-/// none (`lod::refine`). Without the sides of `a`, the edge-on pieces of a peg's wall past the
-/// corners of the rim's pieces were dropped: the suite's peg had a p90 error of 0.280 at
-/// 2.5 % rather than 0.059, for 1 % fewer node pairs a jaws query. (The true distance between
-/// the shadows, 0 where they overlap, cost a third more instructions a jaws query:
-/// `docs/experiments/lod-accuracy-and-speed-probes.md`, probes 28 and 29.)
-pub(crate) fn beside_prism_m(a: &[Vec3], b: &[Vec3], nb: &Vec3, reach_m: Real) -> Real {
+/// Whether tool polygon `a` lies beside obstacle polygon `b`'s prism (unit normal `nb`, `b`
+/// counter-clockwise about it) by less than `within_m`, where `a`'s heights come within
+/// `reach_m` of `b`'s plane: how far (m), and the length over which the two shadows face each
+/// other across the line that separates them (m; the overlap of their extents along it, 0
+/// where there is none, diagonally past a corner). How far is the largest distance of `a` from
+/// the plane of a wall it lies wholly beyond, or, where it lies beyond none (past a corner),
+/// the widest gap between the two shadows on `b`'s plane across a side of `a`'s (a separating
+/// axis). Either is a lower bound on its distance from the prism. `None` where it lies
+/// farther (the walk stops at the first wall that says so), where the shadows overlap (`a`
+/// over `b` in part, or across it), or where `a` is out of reach in height.
+///
+/// The surfaces two coarse pieces stand for may lie their deviations nearer than the pieces,
+/// and have a region where the pieces have none (`lod::refine`): a band as wide as the
+/// deviations leave and at most as long as the shadows face each other. Without the sides of
+/// `a`, the edge-on pieces of a peg's wall past the corners of the rim's pieces were dropped:
+/// the suite's peg had a p90 error of 0.280 at 2.5 % rather than 0.059, for 1 % fewer node
+/// pairs a jaws query. (The true distance between the shadows, 0 where they overlap, cost a
+/// third more instructions a jaws query: `docs/experiments/lod-accuracy-and-speed-probes.md`,
+/// probes 28 and 29.)
+pub(crate) fn beside_prism(
+    a: &[Vec3],
+    b: &[Vec3],
+    nb: &Vec3,
+    reach_m: Real,
+    within_m: Real,
+) -> Option<(Real, Real)> {
     let origin = b[0];
     let (lo, hi) = a
         .iter()
@@ -262,11 +274,12 @@ pub(crate) fn beside_prism_m(a: &[Vec3], b: &[Vec3], nb: &Vec3, reach_m: Real) -
             (l.min(z), h.max(z))
         });
     if !(hi >= -reach_m && lo <= reach_m) {
-        return Real::INFINITY;
+        return None;
     }
     // Outside an edge `p0 p1` of `b` (counter-clockwise about `nb`): `(p1 − p0) × (p − p0)`
     // along `nb` negative, its size the distance from the wall's plane times the edge's length.
     let mut beside_m = Real::NEG_INFINITY;
+    let mut along = Vec3::zeros();
     for (i, p0) in b.iter().enumerate() {
         let edge = b[(i + 1) % b.len()] - p0;
         let wall = edge.cross(nb);
@@ -278,10 +291,16 @@ pub(crate) fn beside_prism_m(a: &[Vec3], b: &[Vec3], nb: &Vec3, reach_m: Real) -
             .iter()
             .map(|v| wall.dot(&(v - p0)))
             .fold(Real::INFINITY, Real::min);
-        beside_m = beside_m.max(outside / length);
+        if outside >= within_m * length {
+            return None;
+        }
+        if outside > beside_m * length {
+            beside_m = outside / length;
+            along = edge;
+        }
     }
     if beside_m > 0.0 {
-        return beside_m;
+        return Some((beside_m, shared_length_m(a, b, &along)));
     }
     // Past a corner of the prism no wall of `b` separates the two shadows, but a side of
     // `a`'s may: an edge-on tool piece's shadow is a thin band, and beyond a corner it is
@@ -303,13 +322,28 @@ pub(crate) fn beside_prism_m(a: &[Vec3], b: &[Vec3], nb: &Vec3, reach_m: Real) -
                 })
         };
         let ((a_lo, a_hi), (b_lo, b_hi)) = (span(a), span(b));
-        apart_m = apart_m.max((b_lo - a_hi).max(a_lo - b_hi) / length);
+        let apart = (b_lo - a_hi).max(a_lo - b_hi) / length;
+        if apart > apart_m {
+            apart_m = apart;
+            along = edge;
+        }
     }
-    if apart_m > 0.0 {
-        apart_m
-    } else {
-        Real::INFINITY
-    }
+    (apart_m > 0.0 && apart_m < within_m).then(|| (apart_m, shared_length_m(a, b, &along)))
+}
+
+/// The overlap of the extents of `a` and `b` along `along` (m; any length but 0), 0 where
+/// there is none.
+fn shared_length_m(a: &[Vec3], b: &[Vec3], along: &Vec3) -> Real {
+    let u = along.normalize();
+    let span = |ps: &[Vec3]| {
+        ps.iter()
+            .fold((Real::INFINITY, Real::NEG_INFINITY), |(l, h), v| {
+                let x = u.dot(v);
+                (l.min(x), h.max(x))
+            })
+    };
+    let ((a_lo, a_hi), (b_lo, b_hi)) = (span(a), span(b));
+    (a_hi.min(b_hi) - a_lo.max(b_lo)).max(0.0)
 }
 
 /// The penalty's weight `w(h) = δ − h` (0 above `δ`) at a piece's height `h`, averaged over where

@@ -120,9 +120,16 @@ pub fn bumpy_sphere(levels: usize, r: Real, bump: Real, seed: u64) -> TriMesh {
 /// wall first, as full-length strips of two triangles each (strip `s` is triangles `2s` and
 /// `2s + 1`), then the two caps as fans about their centres. Outward CCW triangles.
 pub fn cylinder(r: Real, h: Real, segments: usize) -> TriMesh {
+    layered_cylinder(r, h, segments, 1)
+}
+
+/// [`cylinder`] with its wall in `layers` rows of quads (row by row, two triangles a quad).
+pub fn layered_cylinder(r: Real, h: Real, segments: usize, layers: usize) -> TriMesh {
     let n = segments as u32;
-    let mut v = Vec::with_capacity(2 * segments + 2);
-    for z in [0.0, h] {
+    let rows = layers.max(1) as u32;
+    let mut v = Vec::with_capacity((layers + 1) * segments + 2);
+    for k in 0..=rows {
+        let z = h * Real::from(k) / Real::from(rows);
         for s in 0..segments {
             let a = std::f64::consts::TAU * s as Real / segments as Real;
             v.push(Vec3::new(r * a.cos(), r * a.sin(), z));
@@ -130,17 +137,21 @@ pub fn cylinder(r: Real, h: Real, segments: usize) -> TriMesh {
     }
     v.push(Vec3::zeros());
     v.push(Vec3::new(0.0, 0.0, h));
-    let (bottom, top) = (2 * n, 2 * n + 1);
-    let mut t = Vec::with_capacity(4 * segments);
-    for s in 0..n {
-        let s1 = (s + 1) % n;
-        t.push([s, s1, n + s1]);
-        t.push([s, n + s1, n + s]);
+    let (bottom, top) = ((rows + 1) * n, (rows + 1) * n + 1);
+    let mut t = Vec::with_capacity(2 * segments * (layers + 1));
+    for k in 0..rows {
+        let (lo, hi) = (k * n, (k + 1) * n);
+        for s in 0..n {
+            let s1 = (s + 1) % n;
+            t.push([lo + s, lo + s1, hi + s1]);
+            t.push([lo + s, hi + s1, hi + s]);
+        }
     }
+    let last = rows * n;
     for s in 0..n {
         let s1 = (s + 1) % n;
         t.push([bottom, s1, s]);
-        t.push([top, n + s, n + s1]);
+        t.push([top, last + s, last + s1]);
     }
     mesh(v, t)
 }
