@@ -121,6 +121,11 @@ pub(crate) struct PairRegion {
     /// The smallest `|h|` over the part of `A` over `B` within `δ` (m): the exact distance from
     /// that part to `B`, 0 where they cross; infinite when there is none.
     pub nearest_m: Real,
+    /// From [`pair_region_beside`], where `A`'s shadow lies wholly beyond a wall of `B`'s prism
+    /// (the first found): how far beyond it (m; a lower bound on how far `A` lies beside the
+    /// prism, [`beside_prism_m`]) and the length over which the two shadows face each other
+    /// across it (m; the overlap of their extents along the wall, 0 where there is none).
+    pub beside: Option<(Real, Real)>,
 }
 
 impl PairRegion {
@@ -128,6 +133,7 @@ impl PairRegion {
     const NONE: Self = Self {
         region: None,
         nearest_m: Real::INFINITY,
+        beside: None,
     };
 }
 
@@ -136,6 +142,32 @@ impl PairRegion {
 /// docs). `offset` says where the surfaces the polygons simplify lie about them
 /// ([`HeightOffset::NONE`] for triangles).
 pub(crate) fn pair_region(
+    a: &[Vec3],
+    b: &[Vec3],
+    nb: &Vec3,
+    delta_m: Real,
+    offset: HeightOffset,
+) -> PairRegion {
+    region::<false>(a, b, nb, delta_m, offset)
+}
+
+/// [`pair_region`], and where `a`'s shadow lies wholly beyond a wall of `b`'s prism, how far
+/// and over what length they face each other across it ([`PairRegion::beside`]): the band of
+/// the surfaces two facing coarse pieces stand for that may lie over each other there
+/// (`lod::refine`).
+pub(crate) fn pair_region_beside(
+    a: &[Vec3],
+    b: &[Vec3],
+    nb: &Vec3,
+    delta_m: Real,
+    offset: HeightOffset,
+) -> PairRegion {
+    region::<true>(a, b, nb, delta_m, offset)
+}
+
+/// [`pair_region`], and with `BESIDE` [`pair_region_beside`].
+#[inline(always)]
+fn region<const BESIDE: bool>(
     a: &[Vec3],
     b: &[Vec3],
     nb: &Vec3,
@@ -169,8 +201,28 @@ pub(crate) fn pair_region(
     };
     // Most pairs that reach here lie beside each other, not one over the other: the whole tool
     // polygon is outside one edge, and the clips below would end empty.
-    if (0..m).any(|i| local[..n].iter().all(|p| inside(i, p) < 0.0)) {
-        return PairRegion::NONE;
+    if let Some(i) = (0..m).find(|&i| local[..n].iter().all(|p| inside(i, p) < 0.0)) {
+        if !BESIDE {
+            return PairRegion::NONE;
+        }
+        // How far beyond that wall, and how long the two shadows face each other across it.
+        let (p0, p1) = (corners[i], corners[(i + 1) % m]);
+        let edge = [p1[0] - p0[0], p1[1] - p0[1]];
+        let length = edge[0].hypot(edge[1]);
+        let beyond = local[..n]
+            .iter()
+            .map(|p| -inside(i, p))
+            .fold(Real::INFINITY, Real::min);
+        let along = |p: &[Real]| (edge[0] * p[0] + edge[1] * p[1]) / length;
+        let span = |(lo, hi): (Real, Real), x: Real| (lo.min(x), hi.max(x));
+        let empty = (Real::INFINITY, Real::NEG_INFINITY);
+        let (a_lo, a_hi) = local[..n].iter().map(|p| along(p)).fold(empty, span);
+        let (b_lo, b_hi) = corners[..m].iter().map(|p| along(p)).fold(empty, span);
+        return PairRegion {
+            beside: (length > 0.0)
+                .then(|| (beyond / length, (a_hi.min(b_hi) - a_lo.max(b_lo)).max(0.0))),
+            ..PairRegion::NONE
+        };
     }
     let mut poly: Poly = ([[0.0; 3]; MAX_CLIPPED], n);
     poly.0[..n].copy_from_slice(&local[..n]);
@@ -240,32 +292,20 @@ pub(crate) fn pair_region(
     out
 }
 
-/// Whether tool polygon `a` lies beside obstacle polygon `b`'s prism (unit normal `nb`, `b`
-/// counter-clockwise about it) by less than `within_m`, where `a`'s heights come within
-/// `reach_m` of `b`'s plane: how far (m), and the length over which the two shadows face each
-/// other across the line that separates them (m; the overlap of their extents along it, 0
-/// where there is none, diagonally past a corner). How far is the largest distance of `a` from
-/// the plane of a wall it lies wholly beyond, or, where it lies beyond none (past a corner),
-/// the widest gap between the two shadows on `b`'s plane across a side of `a`'s (a separating
-/// axis). Either is a lower bound on its distance from the prism. `None` where it lies
-/// farther (the walk stops at the first wall that says so), where the shadows overlap (`a`
-/// over `b` in part, or across it), or where `a` is out of reach in height.
-///
-/// The surfaces two coarse pieces stand for may lie their deviations nearer than the pieces,
-/// and have a region where the pieces have none (`lod::refine`): a band as wide as the
-/// deviations leave and at most as long as the shadows face each other. Without the sides of
-/// `a`, the edge-on pieces of a peg's wall past the corners of the rim's pieces were dropped:
-/// the suite's peg had a p90 error of 0.280 at 2.5 % rather than 0.059, for 1 % fewer node
-/// pairs a jaws query. (The true distance between the shadows, 0 where they overlap, cost a
-/// third more instructions a jaws query: `docs/experiments/lod-accuracy-and-speed-probes.md`,
-/// probes 28 and 29.)
-pub(crate) fn beside_prism(
-    a: &[Vec3],
-    b: &[Vec3],
-    nb: &Vec3,
-    reach_m: Real,
-    within_m: Real,
-) -> Option<(Real, Real)> {
+/// How far tool polygon `a` lies beside obstacle polygon `b`'s prism (unit normal `nb`, `b`
+/// counter-clockwise about it), where `a`'s heights come within `reach_m` of `b`'s plane
+/// (m): the largest distance of `a` from the plane of a wall it lies wholly beyond, or, where
+/// it lies beyond none (past a corner), the widest gap between the two shadows on `b`'s
+/// plane across a side of `a`'s (a separating axis). Either is a lower bound on its
+/// distance from the prism. Infinite where the shadows overlap (`a` over `b` in part, or
+/// across it) or where `a` is out of reach in height. The surfaces two coarse pieces stand
+/// for may lie that much nearer than the pieces, and have a region where the pieces have
+/// none (`lod::refine`). Without the sides of `a`, the edge-on pieces of a peg's wall past the
+/// corners of the rim's pieces were dropped: the suite's peg had a p90 error of 0.280 at
+/// 2.5 % rather than 0.059, for 1 % fewer node pairs a jaws query. (The true distance between
+/// the shadows, 0 where they overlap, cost a third more instructions a jaws query:
+/// `docs/experiments/lod-accuracy-and-speed-probes.md`, probes 28 and 29.)
+pub(crate) fn beside_prism_m(a: &[Vec3], b: &[Vec3], nb: &Vec3, reach_m: Real) -> Real {
     let origin = b[0];
     let (lo, hi) = a
         .iter()
@@ -274,12 +314,11 @@ pub(crate) fn beside_prism(
             (l.min(z), h.max(z))
         });
     if !(hi >= -reach_m && lo <= reach_m) {
-        return None;
+        return Real::INFINITY;
     }
     // Outside an edge `p0 p1` of `b` (counter-clockwise about `nb`): `(p1 − p0) × (p − p0)`
     // along `nb` negative, its size the distance from the wall's plane times the edge's length.
     let mut beside_m = Real::NEG_INFINITY;
-    let mut along = Vec3::zeros();
     for (i, p0) in b.iter().enumerate() {
         let edge = b[(i + 1) % b.len()] - p0;
         let wall = edge.cross(nb);
@@ -291,16 +330,10 @@ pub(crate) fn beside_prism(
             .iter()
             .map(|v| wall.dot(&(v - p0)))
             .fold(Real::INFINITY, Real::min);
-        if outside >= within_m * length {
-            return None;
-        }
-        if outside > beside_m * length {
-            beside_m = outside / length;
-            along = edge;
-        }
+        beside_m = beside_m.max(outside / length);
     }
     if beside_m > 0.0 {
-        return Some((beside_m, shared_length_m(a, b, &along)));
+        return beside_m;
     }
     // Past a corner of the prism no wall of `b` separates the two shadows, but a side of
     // `a`'s may: an edge-on tool piece's shadow is a thin band, and beyond a corner it is
@@ -322,28 +355,13 @@ pub(crate) fn beside_prism(
                 })
         };
         let ((a_lo, a_hi), (b_lo, b_hi)) = (span(a), span(b));
-        let apart = (b_lo - a_hi).max(a_lo - b_hi) / length;
-        if apart > apart_m {
-            apart_m = apart;
-            along = edge;
-        }
+        apart_m = apart_m.max((b_lo - a_hi).max(a_lo - b_hi) / length);
     }
-    (apart_m > 0.0 && apart_m < within_m).then(|| (apart_m, shared_length_m(a, b, &along)))
-}
-
-/// The overlap of the extents of `a` and `b` along `along` (m; any length but 0), 0 where
-/// there is none.
-fn shared_length_m(a: &[Vec3], b: &[Vec3], along: &Vec3) -> Real {
-    let u = along.normalize();
-    let span = |ps: &[Vec3]| {
-        ps.iter()
-            .fold((Real::INFINITY, Real::NEG_INFINITY), |(l, h), v| {
-                let x = u.dot(v);
-                (l.min(x), h.max(x))
-            })
-    };
-    let ((a_lo, a_hi), (b_lo, b_hi)) = (span(a), span(b));
-    (a_hi.min(b_hi) - a_lo.max(b_lo)).max(0.0)
+    if apart_m > 0.0 {
+        apart_m
+    } else {
+        Real::INFINITY
+    }
 }
 
 /// The penalty's weight `w(h) = δ − h` (0 above `δ`) at a piece's height `h`, averaged over where

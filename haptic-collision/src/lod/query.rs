@@ -5,10 +5,12 @@ use haptic_core::{
 };
 
 use super::build::{Hierarchy, Node, PieceBall};
-use super::refine::{Written, band_weight_m3, refine_regions, weight_error_m3, weight_unsure};
+use super::refine::{
+    FACING_COS, Written, band_weight_m3, refine_regions, weight_error_m3, weight_unsure,
+};
 use super::{LodError, MAX_PIECE_VERTICES};
 use crate::geometry::PairContact;
-use crate::slab::{HeightOffset, RegionContact, beside_prism, pair_region};
+use crate::slab::{HeightOffset, RegionContact, beside_prism_m, pair_region, pair_region_beside};
 
 /// The rigid map from the tool's body frame to one obstacle's mesh frame, and what is needed to
 /// write contacts in the world frame.
@@ -397,7 +399,14 @@ pub(crate) fn walk_from_stack(
             }
             stats.primitive_pairs_tested += 1;
             let (ma, mb, offset) = early.unwrap_or_else(|| offset(ia, ib));
-            let regions = pair_region(&buf[..len], pb, &b.normal, delta, offset);
+            // Facing coarse pieces under the budgeted rule measure where they lie beside each
+            // other's prisms (below).
+            let facing = walk.refine && !(leaf_a && leaf_b) && na.dot(&b.normal) <= -FACING_COS;
+            let regions = if facing {
+                pair_region_beside(&buf[..len], pb, &b.normal, delta, offset)
+            } else {
+                pair_region(&buf[..len], pb, &b.normal, delta, offset)
+            };
             // The budgeted rule: pieces that do not face each other and do not stand exactly
             // for their surfaces put a region where those surfaces may have none, or none
             // where they may have one (`refine.rs`). Beside the obstacle piece's prism within
@@ -410,33 +419,31 @@ pub(crate) fn walk_from_stack(
                     ma.cover * mb.cover,
                 );
             let deviations_m = a.deviation + b.deviation;
-            let reach_m = delta + offset.reach_m();
             if unsure
                 && regions.region.is_none()
-                && beside_prism(&buf[..len], pb, &b.normal, reach_m, deviations_m).is_some()
+                && beside_prism_m(&buf[..len], pb, &b.normal, delta + offset.reach_m())
+                    < deviations_m
             {
                 descend(ia, a, ib, b, stack);
                 continue;
             }
-            // Facing coarse pieces with no region, beside the obstacle piece's prism by less
-            // than their deviations: the surfaces they stand for may lie over each other in a
-            // band along the side that faces (`refine.rs`). The first walk shows the band's
-            // weight to the budget; below the regions taken out, the pair is descended where
-            // the band may weigh more than its share.
-            if walk.refine && !unsure && !(leaf_a && leaf_b) && regions.region.is_none() {
-                if let Some((beside_m, shared_m)) =
-                    beside_prism(&buf[..len], pb, &b.normal, reach_m, deviations_m)
+            // Facing coarse pieces with no region, beyond a wall of the obstacle piece's prism
+            // by less than their deviations: the surfaces they stand for may lie over each
+            // other in a band along it (`refine.rs`). The first walk shows the band's weight to
+            // the budget; below the regions taken out, the pair is descended where the band may
+            // weigh more than its share.
+            if let Some((beside_m, shared_m)) = regions
+                .beside
+                .filter(|&(beside_m, _)| beside_m < deviations_m)
+            {
+                let g_m = gap_weight_m(-gap, delta);
+                let band_m3 = band_weight_m3(deviations_m - beside_m, shared_m, g_m);
+                if pass == Pass::Record {
+                    written.push(Written::band((ia, ib), band_m3));
+                } else if band_m3 > walk.weight_error_per_weight * ma.area_m2.min(mb.area_m2) * g_m
                 {
-                    let g_m = gap_weight_m(-gap, delta);
-                    let band_m3 = band_weight_m3(deviations_m - beside_m, shared_m, g_m);
-                    if pass == Pass::Record {
-                        written.push(Written::band((ia, ib), band_m3));
-                    } else if band_m3
-                        > walk.weight_error_per_weight * ma.area_m2.min(mb.area_m2) * g_m
-                    {
-                        descend(ia, a, ib, b, stack);
-                        continue;
-                    }
+                    descend(ia, a, ib, b, stack);
+                    continue;
                 }
             }
             // The coherence rule (`stopping.rs`): a contact between pieces whose surfaces face

@@ -100,22 +100,25 @@
 //! jaws query (probe 30).
 //!
 //! Pieces that face each other have a weight the spread can tell, where they have a region.
-//! Where they have none, their shadows lying beside each other, the surfaces they stand for
-//! may still lie over each other in a band along the sides that face: as wide as the two
-//! deviations less the gap between the shadows, as long as the shadows face each other
-//! across it, at the pieces' weight `δ − gap` ([`band_weight_m3`]). On a wall whose contacts
-//! push all ways at once (a peg centred in its bushing, a bolt's flanks), those bands are
-//! where the force that does not cancel is lost: a peg centred in a bushing whose wall has 33
+//! Where they have none, the tool piece's shadow lying beyond a wall of the obstacle piece's
+//! prism, the surfaces they stand for may still lie over each other in a band along that wall:
+//! as wide as the two deviations less how far beyond it the shadow lies, as long as the two
+//! shadows face each other across it, at the pieces' weight `δ − gap` ([`band_weight_m3`];
+//! `slab::pair_region_beside` measures it where it finds the wall). On a wall whose contacts
+//! push all ways at once (a peg centred in its bushing, a bolt's flanks), those bands are where
+//! the force that does not cancel is lost: a peg centred in a bushing whose wall has 33
 //! segments against its 40 was pushed sideways by 0.24 of its wrench. So the first walk notes
 //! such a pair ([`Written::band`], no contact and no force) with the band's weight as its
 //! weight error, and the budget takes it out like a region, largest first; below the regions
 //! taken out, such a pair is descended where its band may weigh more than its share of the
 //! budget, `ρ` times the lesser piece's area at that weight (what a region between them could
 //! weigh at most). Quick suite at 2.5 %, clustered median / p90: the bushing's p90 0.111 →
-//! 0.081, the bolts 0.041 / 0.071 → 0.036 / 0.047 and 0.038 / 0.055 → 0.029 / 0.041, the fine
-//! gears' p90 0.033 → 0.018, for 8 % more node pairs a jaws query. Descending every such pair
-//! below the regions taken out gave the same errors for 21 %; dropping them there, 5 %, and
-//! the bushing's p90 not at all (probe 32).
+//! 0.081, the bolts 0.041 / 0.071 → 0.038 / 0.045 and 0.038 / 0.055 → 0.031 / 0.043, the fine
+//! gears' p90 0.033 → 0.018, for 7 % more node pairs and 20 % more instructions a jaws query.
+//! Descending every such pair below the regions taken out gave the same errors for 21 % more
+//! node pairs; dropping them there, 5 %, and the bushing's p90 not at all; the pieces past a
+//! corner of the prism too (measured across the sides of the tool piece's shadow, a square
+//! band), the same errors for 43 % more instructions (probe 32).
 
 use haptic_core::{ContactSet, QueryStats, Real, Vec3};
 
@@ -194,9 +197,10 @@ impl Written {
     pub const NO_CONTACT: u32 = u32::MAX;
 
     /// A pair of facing pieces that wrote no region though the surfaces they stand for may
-    /// have one: the tool piece lies beside the obstacle piece's prism by less than their two
-    /// deviations, so that a band of the surfaces may lie over each other, with the weight
-    /// `weight_m3` at most. No contact and no force; its weight's error is that weight.
+    /// have one: the tool piece lies beyond a wall of the obstacle piece's prism by less than
+    /// their two deviations, so that a band of the surfaces may lie over each other along it,
+    /// with the weight `weight_m3` at most. No contact and no force; its weight's error is
+    /// that weight.
     #[inline]
     pub fn band(pair: (u32, u32), weight_m3: Real) -> Self {
         Self {
@@ -210,10 +214,10 @@ impl Written {
     }
 }
 
-/// The weight a band of the surfaces of two facing pieces may have where the pieces' shadows
-/// lie beside each other (m³; module docs): `width_m` (the two deviations less the gap between
-/// the shadows) by the length the shadows face each other over, `shared_m`, and `width_m` more
-/// (the corners' reach), at the weight `g_m` (`δ − gap`, m).
+/// The weight a band of the surfaces of two facing pieces may have where the tool piece's
+/// shadow lies beyond a wall of the obstacle piece's prism (m³; module docs): `width_m` (the
+/// two deviations less how far beyond) by the length the shadows face each other over,
+/// `shared_m`, and `width_m` more (the band's ends), at the weight `g_m` (`δ − gap`, m).
 #[inline]
 pub(crate) fn band_weight_m3(width_m: Real, shared_m: Real, g_m: Real) -> Real {
     let width_m = width_m.max(0.0);
@@ -429,7 +433,7 @@ mod tests {
     #[test]
     fn a_band_is_noted_with_its_weight_as_its_error_and_no_force() {
         assert_eq!(band_weight_m3(2.0, 3.0, 0.5), 2.0 * 5.0 * 0.5);
-        // Shadows past a corner (no shared length): the corner's square.
+        // Shadows that face each other over nothing (past a corner): the band's ends, a square.
         assert_eq!(band_weight_m3(2.0, 0.0, 0.5), 2.0);
         // Beside by more than the deviations, or out of reach: nothing.
         assert_eq!(band_weight_m3(-1.0, 3.0, 0.5), 0.0);

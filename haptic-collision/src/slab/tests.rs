@@ -1,12 +1,6 @@
 use super::*;
 use proptest::prelude::*;
 
-/// How far `a` lies beside `b`'s prism ([`beside_prism`] with no limit), infinite where it does
-/// not.
-fn beside_prism_m(a: &[Vec3], b: &[Vec3], nb: &Vec3, reach_m: Real) -> Real {
-    beside_prism(a, b, nb, reach_m, Real::INFINITY).map_or(Real::INFINITY, |(d, _)| d)
-}
-
 const DELTA: Real = 1e-3;
 
 /// `(∫g, ∫g x, ∫g²)` of a region as its contact stands for it.
@@ -84,10 +78,12 @@ fn pieces_beyond_delta_are_told_from_pieces_apart_within_it() {
     assert!(!crossing.pieces_apart && !crossing.pieces_beyond(DELTA));
 }
 
-/// A facing tool square beside a floor square: how far beside, and how long their shadows face
-/// each other across the wall that separates them (nothing diagonally past a corner).
+/// A facing tool square 0.1 mm above a floor square, its shadow beyond a wall of the floor's
+/// prism: no region, and how far beyond that wall and how long the two shadows face each other
+/// across it (diagonally past a corner, the first wall found: a lower bound, facing over
+/// nothing).
 #[test]
-fn a_facing_piece_beside_a_prism_says_how_far_and_how_long_it_faces_it() {
+fn a_facing_piece_beyond_a_wall_says_how_far_and_how_long_it_faces_it() {
     let square = |x0: Real, y0: Real, z: Real| {
         let size = 0.01;
         [
@@ -99,18 +95,45 @@ fn a_facing_piece_beside_a_prism_says_how_far_and_how_long_it_faces_it() {
     };
     let floor = square(0.0, 0.0, 0.0);
     let nb = Vec3::z();
-    // Beside the wall x = 0.01 by 0.2 mm, its y from 6 to 16 mm: 4 mm facing.
-    let within = 1e-3;
-    let beside = |x0, y0| beside_prism(&square(x0, y0, -0.1e-3), &floor, &nb, DELTA, within);
+    let beside = |x0, y0| {
+        let r = pair_region_beside(
+            &square(x0, y0, 0.1e-3),
+            &floor,
+            &nb,
+            DELTA,
+            HeightOffset::NONE,
+        );
+        assert!(r.region.is_none() && r.nearest_m == Real::INFINITY);
+        r.beside
+    };
+    // Beyond the wall x = 10 mm by 0.2 mm, its y from 6 to 16 mm: 4 mm facing.
     let (d, shared) = beside(0.0102, 0.006).unwrap();
     assert!((d - 0.2e-3).abs() < 1e-12, "{d}");
     assert!((shared - 0.004).abs() < 1e-12, "{shared}");
-    // Diagonally past the corner (10, 10) mm: beside by 0.3 mm, facing over nothing.
+    // Diagonally past the corner (10, 10) mm: beyond both walls by 0.2 and 0.3 mm.
     let (d, shared) = beside(0.0102, 0.0103).unwrap();
-    assert!((d - 0.3e-3).abs() < 1e-12 && shared == 0.0, "{d} {shared}");
-    // Farther than `within`, or over it in part: not beside.
-    assert_eq!(beside(0.0112, 0.006), None);
-    assert_eq!(beside(0.008, 0.006), None);
+    assert!(
+        (0.2e-3 - 1e-12..=0.3e-3 + 1e-12).contains(&d) && shared == 0.0,
+        "{d} {shared}"
+    );
+    assert!(d <= beside_prism_m(&square(0.0102, 0.0103, 0.1e-3), &floor, &nb, DELTA) + 1e-12);
+    // Over it in part: a region, and nothing beside; `pair_region` does not measure.
+    let over = pair_region_beside(
+        &square(0.008, 0.006, 0.1e-3),
+        &floor,
+        &nb,
+        DELTA,
+        HeightOffset::NONE,
+    );
+    assert!(over.region.is_some() && over.beside.is_none());
+    let plain = pair_region(
+        &square(0.0102, 0.006, 0.1e-3),
+        &floor,
+        &nb,
+        DELTA,
+        HeightOffset::NONE,
+    );
+    assert_eq!(plain.beside, None);
 }
 
 /// A vertical tool square standing beside a floor square (edge-on), `x` beyond its edge
