@@ -4,6 +4,10 @@
 //!
 //! - From the repository's meshes: the jaws and the spoon in the cup (as `bench collision`), the
 //!   round peg inserted 4 mm into its hole, and the fork and the spoon lowered into the mug.
+//! - The peg in its hole remeshed (`shapes::split_at_midpoints` for the peg,
+//!   `shapes::split_at_centroids` for the hole, whose thin fans are what meshing tools leave),
+//!   on the same poses: the repository's meshes against the same surfaces tessellated
+//!   otherwise, with its `tessellation_error_rel`.
 //! - Generated in code (`shapes.rs`), each at two tessellations (density 1 and 2, about 4× the
 //!   triangles), on the same poses: a 2 cm box face-on-face on a slab, a pair of spur gears in
 //!   mesh (20 and 35 teeth, module 1 mm, 0.19 mm clearance) with the smaller gear rocking and
@@ -14,7 +18,7 @@
 //!   nowhere (40 and 33 segments), its contacts all around the wall cancelling.
 //! - Per scene, parry and LOD at each threshold, as `bench collision` measures one scene; the
 //!   poses are fewer (100, `--quick`: 12) and replayed once.
-//! - `tessellation_error_rel`: for the generated pairs, per pose, `|W_fine − W_coarse| /
+//! - `tessellation_error_rel`: for the generated pairs and the remeshed peg, per pose, `|W_fine − W_coarse| /
 //!   |W_coarse|` of the reference wrenches (LOD at threshold 0), `W = (F, T / r)`; its median
 //!   over the poses is reported on both tessellations' rows. Each reference clusters along its
 //!   own chain of warm starts, so the figure includes the clustering's own variability.
@@ -123,14 +127,21 @@ fn file_scene(name: &str, n: usize) -> anyhow::Result<Entry> {
 }
 
 /// The round peg 4 mm into its hole, rocking by 0.1°, sliding ±1 mm along its axis and ±0.03 mm
-/// sideways (the radial clearance is 0.05 mm).
-fn peg_in_hole(n: usize) -> anyhow::Result<Entry> {
+/// sideways (the radial clearance is 0.05 mm): as in the repository (`peg-in-hole`), and
+/// remeshed on the same poses (`peg-in-hole-remeshed`: the peg's triangles split at their
+/// edges' midpoints, the hole's at their centroids), the repository's mesh against the same
+/// surface tessellated otherwise.
+fn peg_in_hole(n: usize) -> anyhow::Result<Vec<Entry>> {
     let meshes = common::meshes_dir();
-    let (tool, _) = collision::load_tool(&meshes.join("factory_round_peg_8mm_tight.stl"), 1.0)?;
+    let (peg, _) = TriMesh::load(
+        meshes.join("factory_round_peg_8mm_tight.stl"),
+        &LoadOptions::with_scale(1.0),
+    )?;
     let (hole, _) = TriMesh::load(
         meshes.join("factory_round_hole_8mm.stl"),
         &LoadOptions::with_scale(1.0),
     )?;
+    let (tool, com) = body_frame(peg.clone())?;
     let (lo, hi) = hole.bounding_box();
     let (plo, _) = tool.bounding_box();
     let centre = Vec3::new(
@@ -139,18 +150,48 @@ fn peg_in_hole(n: usize) -> anyhow::Result<Entry> {
         hi.z - 4e-3 - plo.z,
     );
     let poses = peg_path(n, centre);
-    Ok(Entry {
-        scene: Scene {
-            name: "peg-in-hole".into(),
-            description: "NVIDIA Factory round peg (8 mm, tool) 4 mm into its 8.1 mm hole, rocking 0.1°, sliding ±1 mm axially and ±0.03 mm sideways".into(),
-            tool,
-            obstacle: hole,
-            poses,
-            delta_m: 5e-4,
-            k_c: 2000.0,
+    let words = "NVIDIA Factory round peg (8 mm, tool) 4 mm into its 8.1 mm hole, rocking 0.1°, sliding ±1 mm axially and ±0.03 mm sideways";
+    let (fine_tool, fine_com) = body_frame(shapes::split_at_midpoints(&peg)?)?;
+    let fine_hole = shapes::split_at_centroids(&hole)?;
+    // The same placements of the peg, its body frame moved by the copy's centre of mass.
+    let shift = fine_com - com;
+    let fine_poses = poses
+        .iter()
+        .map(|pose| Pose {
+            position: pose.position + pose.orientation * shift,
+            orientation: pose.orientation,
+        })
+        .collect();
+    let scene = |name: &str, description: String, tool, obstacle, poses| Scene {
+        name: name.into(),
+        description,
+        tool,
+        obstacle,
+        poses,
+        delta_m: 5e-4,
+        k_c: 2000.0,
+    };
+    let fine_words = format!(
+        "{words}; remeshed: the peg's triangles split at their edges' midpoints, the hole's at their centroids ({} + {} triangles)",
+        fine_tool.triangles().len(),
+        fine_hole.triangles().len()
+    );
+    Ok(vec![
+        Entry {
+            scene: scene("peg-in-hole", words.into(), tool, hole, poses),
+            family: Some(("peg-in-hole", 1)),
         },
-        family: None,
-    })
+        Entry {
+            scene: scene(
+                "peg-in-hole-remeshed",
+                fine_words,
+                fine_tool,
+                fine_hole,
+                fine_poses,
+            ),
+            family: Some(("peg-in-hole", 2)),
+        },
+    ])
 }
 
 /// A basemesh utensil lowered into the mug (axis +y), tilted 20°, until it touches.
@@ -454,10 +495,10 @@ pub(super) fn run(
     let mut entries = vec![
         file_scene("jaws", n)?,
         file_scene("spoon-cup", n)?,
-        peg_in_hole(n)?,
         utensil_in_mug("fork", n)?,
         utensil_in_mug("spoon", n)?,
     ];
+    entries.splice(2..2, peg_in_hole(n)?);
     entries.extend(boxes(n)?);
     entries.extend(gears(n)?);
     entries.extend(bolt_and_nut(n)?);
@@ -659,9 +700,10 @@ pub(super) fn run(
     Ok(worst)
 }
 
-/// The generated shapes' names, as the `'static` strings their entries carry.
+/// The names of the scenes with two tessellations (generated or remeshed), as the `'static` strings
+/// their entries carry.
 fn name_static(name: &str) -> Option<&'static str> {
-    ["boxes", "gears", "bolt-nut", "peg-bushing"]
+    ["peg-in-hole", "boxes", "gears", "bolt-nut", "peg-bushing"]
         .into_iter()
         .find(|n| *n == name)
 }

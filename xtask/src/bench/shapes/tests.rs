@@ -375,3 +375,45 @@ fn thread_facets_follow_the_profile() -> anyhow::Result<()> {
     }
     Ok(())
 }
+
+/// Total area of the triangles (m²).
+fn area(mesh: &TriMesh) -> Real {
+    let v = mesh.vertices();
+    mesh.triangles()
+        .iter()
+        .map(|t| {
+            let [a, b, c] = t.map(|i| v[i as usize]);
+            0.5 * (b - a).cross(&(c - a)).norm()
+        })
+        .sum()
+}
+
+/// A remeshed copy is the same closed surface: the same area and volume, four (at the edges'
+/// midpoints) or three (at the centroids) times the triangles, closed and oriented as before.
+#[test]
+fn remeshed_copies_keep_the_surface() -> anyhow::Result<()> {
+    for mesh in [
+        box_mesh(Vec3::new(3.0 * MM, 2.0 * MM, 1.0 * MM), 1)?,
+        round_peg(4.0 * MM, 6.0 * MM, 1)?,
+    ] {
+        let (a0, v0) = (area(&mesh), volume(&mesh)?);
+        for (copy, factor) in [
+            (split_at_midpoints(&mesh)?, 4),
+            (split_at_centroids(&mesh)?, 3),
+        ] {
+            assert_closed(&copy);
+            assert_eq!(copy.triangles().len(), factor * mesh.triangles().len());
+            assert!(
+                (area(&copy) / a0 - 1.0).abs() < 1e-12,
+                "{} {a0}",
+                area(&copy)
+            );
+            assert!((volume(&copy)? / v0 - 1.0).abs() < 1e-12);
+        }
+        // Midpoints shared along every edge: `V + E` vertices, `E = 3F/2`.
+        let midpoints = split_at_midpoints(&mesh)?;
+        let edges = 3 * mesh.triangles().len() / 2;
+        assert_eq!(midpoints.vertices().len(), mesh.vertices().len() + edges);
+    }
+    Ok(())
+}
