@@ -1467,17 +1467,8 @@ fn the_budgeted_rule_holds_a_centred_peg_in_a_tube_on_any_tessellation() {
     let mut errors = Vec::new();
     for (peg_sides, tube_sides, rows) in [(40, 33, 5), (64, 48, 8), (32, 80, 10)] {
         let tool = super::testmesh::layered_cylinder(r, 0.006, peg_sides, rows - 1);
-        let obstacles = vec![(
-            tube(r + clearance, 0.010, tube_sides, rows),
-            Pose::identity(),
-        )];
-        let mut reference = LodBackend::new(&tool, &obstacles)
-            .unwrap()
-            .with_max_contacts(None);
-        let mut budget = reference
-            .clone()
-            .with_max_contacts(Some(256))
-            .with_stopping_rule(StoppingRule::CoherenceBudget);
+        let (mut reference, mut budget) =
+            all_pairs_and_budgeted(&tool, tube(r + clearance, 0.010, tube_sides, rows));
         let lever = reference.tool_bounding_radius_m();
         for pose in &poses {
             let wrench = |backend: &mut LodBackend, threshold| {
@@ -1499,18 +1490,25 @@ fn the_budgeted_rule_holds_a_centred_peg_in_a_tube_on_any_tessellation() {
     assert!(median <= 0.05 && worst <= 0.10, "{errors:?}");
 }
 
+/// `tool` against `obstacle` (at the origin): the all-pairs reference (every contact kept), and
+/// the budgeted rule with 256 contacts at most.
+fn all_pairs_and_budgeted(tool: &TriMesh, obstacle: TriMesh) -> (LodBackend, LodBackend) {
+    let obstacles = vec![(obstacle, Pose::identity())];
+    let reference = LodBackend::new(tool, &obstacles)
+        .unwrap()
+        .with_max_contacts(None);
+    let budget = reference
+        .clone()
+        .with_max_contacts(Some(256))
+        .with_stopping_rule(StoppingRule::CoherenceBudget);
+    (reference, budget)
+}
+
 /// The budgeted rule's error at 1 % and 2.5 % (256 contacts at most) against the all-pairs
 /// force ([`net_force`], δ = 0.5 mm), for `tool` against `obstacle` at each of `poses`.
 fn budget_errors(tool: &TriMesh, obstacle: TriMesh, poses: &[Pose]) -> Vec<Real> {
     let delta = 0.0005;
-    let obstacles = vec![(obstacle, Pose::identity())];
-    let mut reference = LodBackend::new(tool, &obstacles)
-        .unwrap()
-        .with_max_contacts(None);
-    let mut budget = reference
-        .clone()
-        .with_max_contacts(Some(256))
-        .with_stopping_rule(StoppingRule::CoherenceBudget);
+    let (mut reference, mut budget) = all_pairs_and_budgeted(tool, obstacle);
     let mut errors = Vec::new();
     for pose in poses {
         let f0 = net_force(&mut reference, pose, delta, 0.0);
