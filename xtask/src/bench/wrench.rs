@@ -91,8 +91,8 @@ fn scaled_norm(w: &[Real; 6], lever: Real) -> Real {
 /// [`NEGLIGIBLE_WRENCH_REL`] times the median of the reference's non-zero wrenches.
 ///
 /// # Errors
-/// When the two runs do not have the same number of poses, or when poses were given and none
-/// could be compared (no contact at any pose, or contacts without areas): an error figure over
+/// When the two runs do not have the same number of poses, when there are no poses, or when
+/// none could be compared (no contact at any pose, or contacts without areas): an error figure over
 /// nothing would be a NaN in the report, not a measurement.
 pub(super) fn pose_errors<'a>(
     ws: impl IntoIterator<Item = Option<&'a [Real; 6]>>,
@@ -123,7 +123,8 @@ pub(super) fn pose_errors<'a>(
         .flatten()
         .filter_map(|(w, w0)| relative_error(w, w0, lever, floor))
         .collect();
-    if errors.is_empty() && !pairs.is_empty() {
+    anyhow::ensure!(!pairs.is_empty(), "no poses to compare");
+    if errors.is_empty() {
         anyhow::bail!(
             "none of the {} poses has a wrench to compare with its reference (no contact at any pose, or contacts without areas)",
             pairs.len()
@@ -266,7 +267,8 @@ mod tests {
         // Runs of different lengths.
         let err = pose_errors([Some(&a)], [Some(&a), Some(&a)], 1.0).unwrap_err();
         assert!(err.to_string().contains("numbers of poses"), "{err}");
-        // No poses at all is no error: nothing was asked.
-        assert!(pose_errors([], [], 1.0).unwrap().is_empty());
+        // No poses at all: nothing measured, not an empty list of errors.
+        let err = pose_errors([], [], 1.0).unwrap_err();
+        assert!(err.to_string().contains("no poses"), "{err}");
     }
 }
