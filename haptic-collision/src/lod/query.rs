@@ -379,6 +379,7 @@ pub(crate) fn walk_from_stack(
                 continue;
             }
             let (len, na) = place_piece(tool, a, frames, &mut buf);
+            let cos_ab = na.dot(&b.normal);
             let pa = frames.point(&a.plane_point);
             let pb = obs.piece_of(b);
             let gap =
@@ -387,7 +388,7 @@ pub(crate) fn walk_from_stack(
             // path gives the exact region of two triangles.
             let offset = |ia, ib| {
                 let (ma, mb) = (tool.moments_of(ia), obs.moments_of(ib));
-                (ma, mb, HeightOffset::of_pieces(ma, mb, na.dot(&b.normal)))
+                (ma, mb, HeightOffset::of_pieces(ma, mb, cos_ab))
             };
             // Piece-level cull: one piece entirely beyond reach on one side of the other's plane,
             // or along the line between them. The reach is δ, or under the coherence rule as far
@@ -401,7 +402,7 @@ pub(crate) fn walk_from_stack(
             let (ma, mb, offset) = early.unwrap_or_else(|| offset(ia, ib));
             // Facing coarse pieces under the budgeted rule measure where they lie beside each
             // other's prisms (below).
-            let facing = walk.refine && !(leaf_a && leaf_b) && na.dot(&b.normal) <= -FACING_COS;
+            let facing = walk.refine && !(leaf_a && leaf_b) && cos_ab <= -FACING_COS;
             let regions = if facing {
                 pair_region_beside(&buf[..len], pb, &b.normal, delta, offset)
             } else {
@@ -413,11 +414,7 @@ pub(crate) fn walk_from_stack(
             // their deviations, such a pair is descended; pair by pair, so is its region.
             let unsure = walk.refine
                 && !(leaf_a && leaf_b)
-                && weight_unsure(
-                    na.dot(&b.normal),
-                    a.deviation + b.deviation,
-                    ma.cover * mb.cover,
-                );
+                && weight_unsure(cos_ab, a.deviation + b.deviation, ma.cover * mb.cover);
             let deviations_m = a.deviation + b.deviation;
             if unsure
                 && regions.region.is_none()

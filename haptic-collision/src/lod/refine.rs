@@ -342,7 +342,8 @@ pub(crate) fn refine_regions(
         ..*walk
     };
     taken.sort_unstable_by_key(|w| w.index);
-    // Their contacts out, the rest in order.
+    // Their contacts out, the rest in order (bands, `Written::NO_CONTACT`, sort last and
+    // match no contact).
     let (mut i, mut next) = (0, 0);
     out.retain(|_| {
         let keep = i < start || taken.get(next).is_none_or(|w| w.index as usize != i);

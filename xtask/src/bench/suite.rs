@@ -74,6 +74,20 @@ fn body_frame(mesh: TriMesh) -> anyhow::Result<(TriMesh, Vec3)> {
     Ok((mesh.translated(&-com)?, com))
 }
 
+/// `poses` of a tool whose body frame is at `com` (in its mesh's frame), as poses of a copy of
+/// it whose body frame is at `copy_com`: the same placements of the shape, each moved by the
+/// difference turned with the tool.
+fn same_placements(poses: &[Pose], com: Vec3, copy_com: Vec3) -> Vec<Pose> {
+    let shift = copy_com - com;
+    poses
+        .iter()
+        .map(|pose| Pose {
+            position: pose.position + pose.orientation * shift,
+            orientation: pose.orientation,
+        })
+        .collect()
+}
+
 /// `n` poses around `centre` (the tool's centre of mass at rest): orientation `turn(s)` and
 /// offset `offset(s)` for `s` once around the circle.
 fn path(
@@ -153,15 +167,7 @@ fn peg_in_hole(n: usize) -> anyhow::Result<Vec<Entry>> {
     let words = "NVIDIA Factory round peg (8 mm, tool) 4 mm into its 8.1 mm hole, rocking 0.1°, sliding ±1 mm axially and ±0.03 mm sideways";
     let (fine_tool, fine_com) = body_frame(shapes::split_at_midpoints(&peg)?)?;
     let fine_hole = shapes::split_at_centroids(&hole)?;
-    // The same placements of the peg, its body frame moved by the copy's centre of mass.
-    let shift = fine_com - com;
-    let fine_poses = poses
-        .iter()
-        .map(|pose| Pose {
-            position: pose.position + pose.orientation * shift,
-            orientation: pose.orientation,
-        })
-        .collect();
+    let fine_poses = same_placements(&poses, com, fine_com);
     let scene = |name: &str, description: String, tool, obstacle, poses| Scene {
         name: name.into(),
         description,
@@ -239,15 +245,7 @@ fn generated(
         let poses = match &shared {
             // The fine tool's body frame differs from the coarse one's by its centre of mass:
             // the same placements of the shape, moved by that difference.
-            Some((p, coarse_com)) => {
-                let shift = com - coarse_com;
-                p.iter()
-                    .map(|pose| Pose {
-                        position: pose.position + pose.orientation * shift,
-                        orientation: pose.orientation,
-                    })
-                    .collect()
-            }
+            Some((p, coarse_com)) => same_placements(p, *coarse_com, com),
             None => {
                 let p = poses(&tool, &obstacle, com, n)?;
                 shared = Some((p.clone(), com));
