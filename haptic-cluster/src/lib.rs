@@ -31,17 +31,24 @@
 //!   make), `p_b = p_a − d n`.
 //! - **Stiffness shares** (not in the paper, which gives every representative the same `k_c`):
 //!   representative `k` pushes with the share
-//!   `s_k = K' |Σ_{i∈k} w_i g_i n_i| / (W g_k)` of the contact stiffness and damping
-//!   (`Contact::stiffness_share`), with `K'` the representatives written, `W = Σ_i w_i` over all
-//!   contacts and `g_k = d_k + δ`. A penalty model then pushes each with
-//!   `k_c s_k g_k n_k = K' k_c Σ_{i∈k} w_i g_i n_i / W`, and their sum,
-//!   `K' k_c Σ_i w_i g_i n_i / W`, is the contacts' area-weighted penalty whatever the
-//!   partition: where Lloyd's method draws its boundaries moves the torque a little (each
-//!   cluster's force acts at its centroid) but not the force. With one cluster, or contacts of
-//!   one depth and normal, the shares are 1 (the paper's model); the shares add up to at most
-//!   `K'`, so the total translational stiffness stays within `K · k_c`. A cluster whose normals
-//!   cancel pushes as little as they do. A contact's own share (1 from a back-end) scales the
-//!   penalty it adds.
+//!   `s_k = N |Σ_{i∈k} w_i g_i n_i| / (W g_k)` of the contact stiffness and damping
+//!   (`Contact::stiffness_share`), with `W = Σ_i w_i` over all contacts, `g_k = d_k + δ`, and
+//!   `N` the clusters asked for, `K` ([`ClusterParams::max_clusters`]), where the contacts
+//!   carry areas, or the clusters written, `K' ≤ K`, where they do not. A penalty model then
+//!   pushes each with `k_c s_k g_k n_k = N k_c Σ_{i∈k} w_i g_i n_i / W`, and their sum,
+//!   `N k_c Σ_i w_i g_i n_i / W`, is the contacts' weighted penalty whatever the partition:
+//!   where Lloyd's method draws its boundaries moves the torque a little (each cluster's force
+//!   acts at its centroid) but not the force. With contacts that stand for surface, it does
+//!   not depend on how many there were either: `K'` falls below `K` where there are fewer
+//!   contacts than `K` (a coarse level of detail, a coarse tessellation: one region where the
+//!   fine mesh has twenty contacts), and out of `K'` the force jumped by `K'/K` there (a fork on
+//!   the teacup at 0.4 %, whose contacts' own error was 0.006 at p90, was off by exactly 0.2 or
+//!   0.4 once clustered). Points without areas are each a spring of the paper's model, and
+//!   share the `K'` springs' stiffness. With clusters of one depth and normal and equal
+//!   weights, the shares are 1 (the paper's model, every representative `k_c`) when there are
+//!   `N` of them; the shares add up to at most `N ≤ K`, so the total translational stiffness
+//!   stays within `K · k_c`. A cluster whose normals cancel pushes as little as they do. A
+//!   contact's own share (1 from a back-end) scales the penalty it adds.
 //! - **Torque pairs** (not in the paper; [`ClusterParams::torque_pairs`], on by default): one
 //!   spring at its cluster's centroid keeps the cluster's force but not the couple of its
 //!   contacts about that point, and where a cluster's forces nearly cancel (a thread pressed on
@@ -443,7 +450,7 @@ impl Clusterer {
             self.update_centroids();
         }
         // The final cost comes out of the representatives' pass.
-        let cost = self.write_representatives(contacts, delta_m, out);
+        let cost = self.write_representatives(contacts, delta_m, with_areas, out);
         if self.record_costs && !converged {
             self.costs.push(cost);
         }

@@ -1,6 +1,6 @@
 //! From clusters to representatives: one spring per cluster (eqs. 30–32), or a torque pair.
 //!
-//! A cluster's contacts push with `u_i = w_i g_i s_i n_i` (in units of `K' k_c / W`, the
+//! A cluster's contacts push with `u_i = w_i g_i s_i n_i` (in units of `N k_c / W`, the
 //! stiffness shares of the crate docs) at their points `p_i`. One representative at the weighted
 //! centroid `c` along `P = Σ u_i` keeps their force, and their torque but for
 //! `M = Σ (p_i − c) × u_i`: the couple of the cluster's contacts about `c`. Where a cluster's
@@ -21,8 +21,8 @@
 //! - each spring is a point pressed on a fixed plane (normal along its force, the cluster's
 //!   depth), so the pair has a potential, as one representative has, and a penalty model or a
 //!   linearized contact model takes it as it takes any contact;
-//! - their shares `K' |P/2 ± G| / (W g_k)` add up to at most the cluster's own bound
-//!   `K' Σ_{i∈k} w_i g_i s_i / (W g_k)`: where the whole couple would need more, `G` is scaled
+//! - their shares `N |P/2 ± G| / (W g_k)` add up to at most the cluster's own bound
+//!   `N Σ_{i∈k} w_i g_i s_i / (W g_k)`: where the whole couple would need more, `G` is scaled
 //!   down until they fit (the pair then keeps part of `M`), so the total stiffness stays within
 //!   `K k_c` as with one spring per cluster.
 //!
@@ -209,12 +209,14 @@ impl Clusterer {
     /// The representatives of the final clusters (eqs. 30–32 and the shares of the crate docs;
     /// a torque pair per cluster when asked for, the module docs), cluster by cluster over each
     /// one's contacts (twice with torque pairs); the clusters' centroids and depths become the
-    /// next call's history. Returns the cost `E` (eq. 28) of the final assignment and
-    /// centroids.
+    /// next call's history. `with_areas`: whether the contacts carry the areas they stand for
+    /// (the shares are then out of the `K` clusters asked for, otherwise out of those written;
+    /// the crate docs). Returns the cost `E` (eq. 28) of the final assignment and centroids.
     pub(crate) fn write_representatives(
         &mut self,
         contacts: &[Contact],
         delta_m: Real,
+        with_areas: bool,
         out: &mut ContactSet,
     ) -> Real {
         let pairs = self.params.torque_pairs;
@@ -237,8 +239,15 @@ impl Clusterer {
         }
         // `starts[j]` is now where cluster j ends; it began where cluster j − 1 ends.
         let total_w: Real = self.weights.iter().sum();
-        // K': every cluster left after the last assignment has a contact.
-        let written = k as Real;
+        // Contacts with areas stand for surface: the shares are out of K, the clusters asked
+        // for, so that the clustered penalty is the same whether the surface came as few
+        // contacts (a coarse level, a coarse tessellation) or many. Points without areas are
+        // springs each (the paper's model): out of K', the clusters written.
+        let stiffness_total = if with_areas {
+            self.params.max_clusters as Real
+        } else {
+            k as Real
+        };
         self.previous.clear();
         let mut cost = 0.0;
         for j in 0..k {
@@ -323,8 +332,8 @@ impl Clusterer {
             } else {
                 None
             };
-            // s = K' |F| / (W g_k) for a spring pushing with F (penalty units).
-            let share_per_force = written / (total_w * weight(d, delta_m));
+            // s = K |F| / (W g_k) for a spring pushing with F (penalty units).
+            let share_per_force = stiffness_total / (total_w * weight(d, delta_m));
             // Opposed normals can cancel: fall back to the deepest contact's normal (the share
             // is then about 0: the spring pushes as little as its contacts do).
             let spring = |p_a: Vec3, r_a: Vec3, f: Vec3, out: &mut ContactSet| {

@@ -24,9 +24,10 @@ pub const NO_FEATURE: u32 = u32::MAX;
 ///   measure it (see [`Contact::with_area`]). Clustering weighs contacts by it.
 /// - `stiffness_share`: the share of the contact model's stiffness and damping this contact
 ///   pushes with (dimensionless, ≥ 0): 1 for a contact as a back-end reports it. A clustered
-///   representative carries its cluster's share of the `K'` representatives' stiffness, in
-///   proportion to the penalty its contacts make (`haptic_cluster`), so that the clustered
-///   penalty does not depend on where the clusters' boundaries fall.
+///   representative carries its cluster's share of the `K` clusters' stiffness (`K` asked
+///   for however many are written, where the contacts carry areas), in proportion to the
+///   penalty its contacts make (`haptic_cluster`), so that the clustered penalty depends
+///   neither on where the clusters' boundaries fall nor on how many contacts a surface gave.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Contact {
     /// Point on the tool, world frame, m.

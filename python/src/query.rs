@@ -128,8 +128,10 @@ impl PyContacts {
 
     /// Share of the penalty stiffness and damping each contact pushes with: 1 for a contact
     /// from a back-end (or built from arrays); a clustered representative's share is its part
-    /// of the `K'` representatives' stiffness, in proportion to the penalty its contacts make,
-    /// so that the representatives' penalty does not depend on the partition.
+    /// of the `K` clusters' stiffness (`max_clusters` however many are written, where the
+    /// contacts carry areas; those written where they do not), in proportion to the penalty its
+    /// contacts make, so that the representatives' penalty depends neither on the partition nor
+    /// on how many contacts a surface gave.
     #[getter]
     fn stiffness_share<'py>(&self, py: Python<'py>) -> Bound<'py, PyArray1<f64>> {
         convert::array1(

@@ -132,8 +132,9 @@ def test_warm_start_keeps_the_order_and_reset_forgets_it():
 @pytest.mark.parametrize("torque_pairs", [False, True])
 def test_shares_keep_the_penalty_whatever_the_partition(torque_pairs):
     # Five clusters of the same contacts, cold and warm-started from another frame: different
-    # partitions, the same force, K' k_c Σ w g n / W (w = g = d + δ without areas); the shares
-    # add up to at most K' and are 1 for a contact built from arrays. With torque pairs the
+    # partitions, the same force, K' k_c Σ w g n / W (w = g = d + δ without areas, so the
+    # K' = 5 clusters written); the shares add up to at most K' and are 1 for a contact built
+    # from arrays. With torque pairs the
     # torque is the contacts' own too.
     rng = np.random.default_rng(7)
     points, depths = two_patches(rng, deepest_in_b=True)
