@@ -3,7 +3,9 @@
 //! was tuned on.
 //!
 //! - From the repository's meshes: the jaws and the spoon in the cup (as `bench collision`), the
-//!   round peg inserted 4 mm into its hole, and the fork and the spoon lowered into the mug.
+//!   round peg inserted 4 mm into its hole, the fork and the spoon lowered into the mug, and the
+//!   fork laid on the outside of the teacup's wall (a few small contacts, at coarse levels fewer
+//!   than the clusters).
 //! - The peg in its hole remeshed (`shapes::split_at_midpoints` for the peg,
 //!   `shapes::split_at_centroids` for the hole, whose thin fans are what meshing tools leave),
 //!   on the same poses: the repository's meshes against the same surfaces tessellated
@@ -219,6 +221,34 @@ fn utensil_in_mug(utensil: &str, n: usize) -> anyhow::Result<Entry> {
             ),
             tool,
             obstacle: mug,
+            poses,
+            delta_m: delta,
+            k_c: 2000.0,
+        },
+        family: None,
+    })
+}
+
+/// The basemesh fork lowered flat onto the outside of the Newell teacup's wall (the cup's axis
+/// along y), until it touches: a few small contacts where the tines and the handle cross a
+/// curved wall, at coarse levels fewer contacts than the clusters (the clustered force must not
+/// count them).
+fn fork_on_cup(n: usize) -> anyhow::Result<Entry> {
+    let meshes = common::meshes_dir();
+    let (tool, _) = collision::load_tool(&meshes.join("basemesh_fork.stl"), 1.0)?;
+    let (cup, _) = TriMesh::load(
+        meshes.join("newell_teacup.stl"),
+        &LoadOptions::with_scale(1.0),
+    )?;
+    let delta = 1e-3;
+    let poses =
+        collision::approach_poses(&tool, &cup, UnitQuaternion::identity(), Vec3::z(), delta, n)?;
+    Ok(Entry {
+        scene: Scene {
+            name: "fork-on-cup".into(),
+            description: "basemesh fork (tool) lowered flat onto the outside of the Newell teacup's wall until it touches, then moved around that pose".into(),
+            tool,
+            obstacle: cup,
             poses,
             delta_m: delta,
             k_c: 2000.0,
@@ -495,6 +525,7 @@ pub(super) fn run(
         file_scene("spoon-cup", n)?,
         utensil_in_mug("fork", n)?,
         utensil_in_mug("spoon", n)?,
+        fork_on_cup(n)?,
     ];
     entries.splice(2..2, peg_in_hole(n)?);
     entries.extend(boxes(n)?);
