@@ -97,7 +97,11 @@
 //! chord of a round wall, its shadow a thin band, beside a rim piece's corner. It is measured
 //! across that side too (`slab::beside_prism_m`), and descended where that is within the
 //! deviations: the suite's peg at 2.5 %, p90 0.280 → 0.059, for 0.9 % more instructions a
-//! jaws query (probe 30).
+//! jaws query (probe 30). Both are measured on the part of the tool piece within reach of
+//! the obstacle's plane, and where that part lies over the prism (above the penalty's slab
+//! or below it, where the surfaces may still reach) the pair is beside by nothing and
+//! descended: a piece crossing the obstacle's plane steeply, over the prism only far below
+//! it, had been dropped (probe 34: the suite's peg at 2.5 %, 0.017 / 0.059 → 0.012 / 0.023).
 //!
 //! Pieces that face each other have a weight the spread can tell, where they have a region.
 //! Where they have none, the tool piece's shadow lying beyond a wall of the obstacle piece's

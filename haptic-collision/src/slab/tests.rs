@@ -184,27 +184,69 @@ fn a_piece_beside_a_prism_says_how_far() {
         "{}",
         beside_prism_m(&diagonal, &floor, &nb, DELTA)
     );
-    // Moved onto the corner, its shadow crosses the floor's: not beside.
+    // Moved onto the corner, its shadow crosses the floor's: beside by nothing.
     let onto: Vec<Vec3> = diagonal
         .iter()
         .map(|v| v - Vec3::new(1.0, 1.0, 0.0) * (d * std::f64::consts::FRAC_1_SQRT_2 * 2.0))
         .collect();
-    assert_eq!(beside_prism_m(&onto, &floor, &nb, DELTA), Real::INFINITY);
+    assert_eq!(beside_prism_m(&onto, &floor, &nb, DELTA), 0.0);
     // Its heights out of the band: not within reach whatever its place.
     assert_eq!(beside(0.3e-3, 0.0035), Real::INFINITY);
-    // Within the prism, the band 2δ tall along the wall is its region, and it is not
-    // beside; nor is a wall tilted across the prism's wall.
+    // Within the prism, the band 2δ tall along the wall is its region, and it lies over the
+    // prism: beside by nothing; so does a wall tilted across the prism's wall.
     assert!(
         pair_region(&wall(-0.3e-3, 0.0), &floor, &nb, DELTA, HeightOffset::NONE)
             .region
             .is_some()
     );
-    assert_eq!(beside(-0.3e-3, 0.0), Real::INFINITY);
+    assert_eq!(beside(-0.3e-3, 0.0), 0.0);
     let tilted: Vec<Vec3> = wall(0.0, 0.0)
         .iter()
         .map(|v| v - Vec3::new(0.1 * v.z, 0.0, 0.0))
         .collect();
-    assert_eq!(beside_prism_m(&tilted, &floor, &nb, DELTA), Real::INFINITY);
+    assert_eq!(beside_prism_m(&tilted, &floor, &nb, DELTA), 0.0);
+}
+
+/// A piece crossing the floor's plane steeply, over the floor's prism only far below it, and
+/// beside the prism where its heights are within reach: beside by what its part within reach
+/// is, not over the prism (the whole piece's shadow crosses the floor's). A spoon's sheet
+/// through a curved back put its coarse pieces so, and was dropped with the force its
+/// triangles push.
+#[test]
+fn a_piece_over_a_prism_only_out_of_reach_is_beside_it() {
+    let floor = [
+        Vec3::new(-0.01, -0.01, 0.0),
+        Vec3::new(0.0, -0.01, 0.0),
+        Vec3::new(0.0, 0.01, 0.0),
+        Vec3::new(-0.01, 0.01, 0.0),
+    ];
+    // x = 0.3 mm + 0.1 z: beyond the wall x = 0 by 0.3 ± 0.1 δ within reach, over the floor
+    // below z = −3 mm.
+    let steep = [
+        Vec3::new(0.3e-3 - 1.2e-3, -0.005, -0.012),
+        Vec3::new(0.3e-3 - 1.2e-3, 0.005, -0.012),
+        Vec3::new(0.3e-3 + 0.2e-3, 0.005, 0.002),
+        Vec3::new(0.3e-3 + 0.2e-3, -0.005, 0.002),
+    ];
+    let nb = Vec3::z();
+    let r = pair_region(&steep, &floor, &nb, DELTA, HeightOffset::NONE);
+    assert!(r.region.is_none(), "{r:?}");
+    let d = beside_prism_m(&steep, &floor, &nb, DELTA);
+    assert!((d - (0.3e-3 - 0.1 * DELTA)).abs() < 1e-12, "{d}");
+    // Over the prism above the slab, but within the reach of the surfaces it stands for
+    // (which may come nearer than the piece): no region, and beside by nothing.
+    let above = [
+        Vec3::new(-0.006, -0.002, 1.2 * DELTA),
+        Vec3::new(-0.002, -0.002, 1.2 * DELTA),
+        Vec3::new(-0.002, 0.002, 1.2 * DELTA),
+    ];
+    assert!(
+        pair_region(&above, &floor, &nb, DELTA, HeightOffset::NONE)
+            .region
+            .is_none()
+    );
+    assert_eq!(beside_prism_m(&above, &floor, &nb, 1.5 * DELTA), 0.0);
+    assert_eq!(beside_prism_m(&above, &floor, &nb, DELTA), Real::INFINITY);
 }
 
 /// A tilted tool square over a floor, partly beyond δ and partly below the floor: the same
