@@ -655,6 +655,39 @@ fn a_face_pushes_the_same_as_few_contacts_or_many() {
     }
 }
 
+/// A contact with no stiffness share (a back-end's closest approach, which reports a distance
+/// and stands for no surface) pushes nothing: alone, its representative has no share; beside
+/// others, the clustered penalty is theirs.
+#[test]
+fn a_contact_without_a_share_pushes_nothing() {
+    let marker = contact(Vec3::zeros(), -Vec3::z(), 5e-4)
+        .with_area(1e-18)
+        .with_stiffness_share(0.0);
+    for params in [paper(), ClusterParams::default()] {
+        let mut c = Clusterer::new(params).unwrap();
+        let mut reps = ContactSet::new();
+        c.cluster(&[marker], DELTA_M, &mut reps).unwrap();
+        assert!(!reps.is_empty());
+        assert!(reps.iter().all(|r| r.stiffness_share == 0.0), "{reps:?}");
+        let face: Vec<Contact> = (0..10)
+            .map(|i| {
+                let p = Vec3::new(1e-3 * i as Real, 0.0, 0.0);
+                contact(p, -Vec3::z(), 2e-4).with_area(1e-6)
+            })
+            .collect();
+        let mut with = face.clone();
+        with.push(marker);
+        let push = |contacts: &[Contact]| {
+            let mut c = Clusterer::new(params).unwrap();
+            let mut reps = ContactSet::new();
+            c.cluster(contacts, DELTA_M, &mut reps).unwrap();
+            representatives_wrench(reps.as_slice()).0
+        };
+        let (f0, f) = (push(&face), push(&with));
+        assert!((f - f0).norm() <= 1e-9 * f0.norm(), "{f:?} vs {f0:?}");
+    }
+}
+
 /// The penalty wrench the representatives make at their own state (unit `k_c`, the sign
 /// aside): `Σ_k s_k g_k n_k` and its torque about the origin, `Σ_k p_k × s_k g_k n_k`.
 fn representatives_wrench(reps: &[Contact]) -> (Vec3, Vec3) {
@@ -782,7 +815,7 @@ fn torque_pairs_keep_a_threads_torque_about_its_axis() {
     for k in [1, 3, 5] {
         let mut c = paired(k);
         let mut reps = ContactSet::new();
-        let stats = c.cluster(&thread, DELTA_M, &mut reps).unwrap();
+        c.cluster(&thread, DELTA_M, &mut reps).unwrap();
         let (f, t) = representatives_wrench(reps.as_slice());
         let (f0, t0) = contacts_wrench(&thread, k);
         assert!(

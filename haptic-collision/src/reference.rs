@@ -6,11 +6,9 @@
 
 use haptic_core::{CollisionBackend, ContactSet, Pose, QueryParams, QueryStats, Real, Vec3};
 
-use haptic_core::NO_FEATURE;
-
 use crate::geometry::{PairContact, triangle_normal, triangle_pair};
 use crate::lod::LodError;
-use crate::lod::closest::{CLOSEST_APPROACH_AREA_M2, touching_if_crossing};
+use crate::lod::closest::touching_if_crossing;
 use crate::lod::query::Frames;
 use crate::mesh::TriMesh;
 use crate::slab::{HeightOffset, pair_region};
@@ -118,13 +116,7 @@ impl CollisionBackend for ReferenceBackend {
             if let Some(pc) = closest
                 && pc.distance < written
             {
-                frames.emit(
-                    &touching_if_crossing(pc),
-                    NO_FEATURE,
-                    NO_FEATURE,
-                    CLOSEST_APPROACH_AREA_M2,
-                    out,
-                )?;
+                frames.emit_closest_approach(&touching_if_crossing(pc), out)?;
             }
         }
         Ok(stats)

@@ -66,15 +66,48 @@ impl Frames {
         area_m2: Real,
         out: &mut ContactSet,
     ) -> Result<(), LodError> {
+        out.push(self.contact(pc, feature_a, feature_b, area_m2)?);
+        Ok(())
+    }
+
+    /// Writes a closest approach (obstacle frame) as a world-frame contact of
+    /// [`super::closest::CLOSEST_APPROACH_AREA_M2`] and no stiffness share: it reports the
+    /// distance and pushes nothing, alone in its call too (`closest.rs`).
+    ///
+    /// # Errors
+    /// [`LodError::Core`] if the contact is not finite (a degenerate input).
+    #[inline]
+    pub fn emit_closest_approach(
+        &self,
+        pc: &PairContact,
+        out: &mut ContactSet,
+    ) -> Result<(), LodError> {
+        let c = self.contact(
+            pc,
+            NO_FEATURE,
+            NO_FEATURE,
+            super::closest::CLOSEST_APPROACH_AREA_M2,
+        )?;
+        out.push(c.with_stiffness_share(0.0));
+        Ok(())
+    }
+
+    /// A pair result (obstacle frame) as a world-frame contact standing for `area_m2`.
+    #[inline]
+    fn contact(
+        &self,
+        pc: &PairContact,
+        feature_a: u32,
+        feature_b: u32,
+        area_m2: Real,
+    ) -> Result<Contact, LodError> {
         let p_a = self.obs_rot * pc.p_a + self.obs_pos;
         let p_b = self.obs_rot * pc.p_b + self.obs_pos;
         let n = self.obs_rot * pc.n;
         let r_a = self.tool_rot_t * (p_a - self.tool_pos);
-        let c = Contact::new(p_a, r_a, p_b, n, pc.depth)?
+        Ok(Contact::new(p_a, r_a, p_b, n, pc.depth)?
             .with_features(feature_a, feature_b)
-            .with_area(area_m2);
-        out.push(c);
-        Ok(())
+            .with_area(area_m2))
     }
 }
 

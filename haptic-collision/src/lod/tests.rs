@@ -237,12 +237,15 @@ proptest! {
         }
         // Each contact stands for at most its tool triangle (the part over the obstacle
         // triangle), the closest approach for next to nothing (but not 0: see
-        // `CLOSEST_APPROACH_AREA_M2`).
+        // `CLOSEST_APPROACH_AREA_M2`) and pushes nothing; the regions push with the whole
+        // stiffness.
         for c in a.iter() {
             if c.feature_a == NO_FEATURE {
                 prop_assert_eq!(c.area_m2, crate::compact::AREA_FLOOR_M2);
+                prop_assert_eq!(c.stiffness_share, 0.0);
                 continue;
             }
+            prop_assert_eq!(c.stiffness_share, 1.0);
             let tri = tool.triangle(c.feature_a as usize);
             let area = 0.5 * (tri[1] - tri[0]).cross(&(tri[2] - tri[0])).norm();
             prop_assert!(c.area_m2 > 0.0 && c.area_m2 <= area * (1.0 + 1e-9), "{} {area}", c.area_m2);
@@ -1234,8 +1237,8 @@ fn the_budgeted_rule_refines_regions_whose_weight_the_spread_cannot_tell() {
 /// the whole groove lies in the middle of its slab, 0.8 mm above the groove's bottom: a cube
 /// held corner down 0.5–1.8 mm over the bottom (beyond `δ` = 1 mm) is within `δ` of that piece.
 /// Written at the pieces' distance, the closest approach was a contact within `δ` where the
-/// surfaces have none, and a contact alone in a call pushes with the whole stiffness, whatever
-/// its area.
+/// surfaces have none, and a contact alone in a call pushed with the whole stiffness, whatever
+/// its area; it now pushes nothing (no stiffness share: `closest.rs`).
 #[test]
 fn a_closest_approach_is_never_nearer_than_the_surfaces() {
     let (half, rise) = (0.02, 0.0016);
@@ -1287,6 +1290,7 @@ fn a_closest_approach_is_never_nearer_than_the_surfaces() {
                     "a closest approach at {} m, the surfaces {nearest} m apart",
                     -c.depth_m
                 );
+                assert_eq!(c.stiffness_share, 0.0);
             }
         }
     }
