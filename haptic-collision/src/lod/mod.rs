@@ -426,6 +426,7 @@ impl CollisionBackend for LodBackend {
                 cull_at_surfaces: self.stopping_rule.culls_at_surfaces(),
                 refine: self.stopping_rule.refines_regions(),
                 weight_error_per_weight: Real::INFINITY,
+                spread_height_m: self.stopping_rule.spread_height_m(params.delta_m),
             };
             collide(&walk, &mut self.scratch, out, &mut stats)?;
         }

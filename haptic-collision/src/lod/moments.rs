@@ -30,6 +30,26 @@ pub(crate) struct SurfaceMoments {
     /// The normal coherence `|Σ aᵢ nᵢ| / Σ aᵢ` of the triangles below the node: 1 for a flat
     /// patch (and a leaf), toward 0 where their faces cancel (`stopping.rs`).
     pub coherence: Real,
+    /// The tangent of the angle whose cosine is the coherence, `√(1 − c²) / c`: how far aside
+    /// the triangles' prisms lean from the piece's, per unit of height (0 for a flat patch,
+    /// [`MAX_SPREAD_TAN`] where the normals cancel). The budgeted rule stops at a piece only
+    /// where that lean over the penalty's reach, `δ` times it, fits the threshold with its
+    /// deviation (`stopping.rs`).
+    pub spread_tan: Real,
+}
+
+/// The largest [`SurfaceMoments::spread_tan`]: normals that cancel (a closed shell) lean every
+/// way.
+pub(crate) const MAX_SPREAD_TAN: Real = 1e6;
+
+/// [`SurfaceMoments::spread_tan`] of the coherence `c`.
+pub(crate) fn spread_tan(c: Real) -> Real {
+    let c = c.clamp(0.0, 1.0);
+    if c * MAX_SPREAD_TAN <= 1.0 {
+        MAX_SPREAD_TAN
+    } else {
+        (1.0 - c * c).sqrt() / c
+    }
 }
 
 /// Per node: how the surface's normal turns across its piece, kept apart from
@@ -123,6 +143,7 @@ pub(crate) fn surface_moments(
             },
             ..SurfaceMoments::default()
         };
+        m.spread_tan = spread_tan(m.coherence);
         if !n.is_leaf() && area > 0.0 && n.normal.iter().all(|x| x.is_finite()) {
             // h = n·x − c with c = n·p₀: ∫h = n·∫x − A c; ∫h² = nᵀ(∫x xᵀ)n − 2c n·∫x + A c².
             let c = n.normal.dot(&(n.plane_point - origin));
@@ -188,6 +209,32 @@ mod tests {
     use super::*;
     use crate::lod::Hierarchy;
     use crate::lod::testmesh::{icosphere_raw, mesh};
+
+    /// The spread's tangent is that of the angle whose cosine is the coherence: 0 for a flat
+    /// patch (every leaf), 1 at 45°, the cap where the normals cancel (a whole sphere).
+    #[test]
+    fn the_spread_is_the_tangent_of_the_coherence_angle() {
+        assert_eq!(spread_tan(1.0), 0.0);
+        assert!((spread_tan(std::f64::consts::FRAC_1_SQRT_2) - 1.0).abs() < 1e-12);
+        assert!((spread_tan(0.5) - 3f64.sqrt()).abs() < 1e-12);
+        assert_eq!(spread_tan(0.0), MAX_SPREAD_TAN);
+        assert_eq!(spread_tan(-0.5), MAX_SPREAD_TAN);
+        let (v, t) = icosphere_raw(3);
+        let h = Hierarchy::build(&mesh(v, t));
+        for (i, n) in h.nodes.iter().enumerate() {
+            let m = &h.moments[i];
+            if n.is_leaf() {
+                assert_eq!(m.spread_tan, 0.0);
+            } else {
+                let expected = (1.0 - m.coherence.powi(2)).sqrt() / m.coherence;
+                assert!(
+                    (m.spread_tan - expected.min(MAX_SPREAD_TAN)).abs() <= 1e-9 * expected.max(1.0)
+                );
+            }
+        }
+        // The root (the whole sphere) cancels.
+        assert!(h.moments[0].spread_tan > 1e3);
+    }
 
     /// On a sphere, whose normal is `x / r` everywhere, the normal field of every node that
     /// covers a cap of at least 16 triangles (their normals within about 37° of their mean:

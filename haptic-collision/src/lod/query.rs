@@ -262,6 +262,11 @@ pub(crate) struct Walk<'a> {
     /// region may have per unit of its weight, `ρ`: a coarse pair whose region's is larger is
     /// descended. Infinite elsewhere.
     pub weight_error_per_weight: Real,
+    /// The height over which the obstacle piece's normal spread counts in the stopping rule
+    /// (m): a pair stops where `s_a + s_b + h tan φ_b ≤ ε`, `tan φ_b` the obstacle piece's
+    /// [`super::SurfaceMoments::spread_tan`] ([`super::StoppingRule::spread_height_m`]: `δ`
+    /// under the budgeted rule, 0 under the paper's).
+    pub spread_height_m: Real,
 }
 
 /// Scratch reused by every query, so that a query allocates nothing once warm.
@@ -398,8 +403,15 @@ pub(crate) fn walk_from_stack(
         }
         let (leaf_a, leaf_b) = (a.is_leaf(), b.is_leaf());
         // Stopping rule of the CLOD traversal: both pieces within the error budget.
+        // The obstacle piece's triangles lean from its prism by its normal spread, `h tan φ_b`
+        // aside at the height `h`: where that is comparable with the penalty's reach, the
+        // piece's prism does not tell which part of the tool its surface lies under.
         let stop = (leaf_a && leaf_b)
-            || (walk.epsilon_m > 0.0 && a.deviation + b.deviation <= walk.epsilon_m);
+            || (walk.epsilon_m > 0.0
+                && a.deviation
+                    + b.deviation
+                    + walk.spread_height_m * obs.moments_of(ib).spread_tan
+                    <= walk.epsilon_m);
         if stop {
             let (da, db) = (tool.piece_ball_of(ia), obs.piece_ball_of(ib));
             if beside(

@@ -1461,9 +1461,13 @@ fn the_budgeted_rule_holds_a_peg_in_a_tube_on_any_tessellation() {
 /// each other's prisms within their deviations, and the bands their surfaces may have over
 /// each other are where what does not cancel is lost, unless the budget is shown them
 /// (`refine.rs`). The wrench `(F, T / r)` of the penalty the contacts stand for against the
-/// all-pairs one at 2.5 %: a median of 0.062 and at most 0.25 over the 18 poses; without the
-/// bands, 0.119 and 0.37. (These poses are the hardest the suite has, beyond its goals: the
-/// suite's bushing at 2.5 %, clustered over the poses of its path, has a p90 of 0.08.)
+/// all-pairs one at 2.5 %: a median of 0.081 and at most 0.17 over the 18 poses; without the
+/// bands, 0.101 and 0.21. (Before the obstacle pieces' normal spread entered the stopping rule,
+/// `stopping.rs`: 0.062 and 0.25 with the bands, 0.119 and 0.37 without; half that spread gave
+/// 0.105 and 0.35, the tool pieces' spread too 0.184 and 0.33: on walls whose forces cancel,
+/// which pieces meet where decides the error more than how fine they are. These poses are the
+/// hardest the suite has, beyond its goals: the suite's bushing at 2.5 %, clustered over the
+/// poses of its path, has a p90 of 0.011.)
 #[test]
 fn the_budgeted_rule_holds_a_centred_peg_in_a_tube_on_any_tessellation() {
     let (r, clearance, delta) = (0.004, 0.00005, 0.0005);
@@ -1501,7 +1505,7 @@ fn the_budgeted_rule_holds_a_centred_peg_in_a_tube_on_any_tessellation() {
         }
     }
     let (median, worst) = median_and_worst(&errors);
-    assert!(median <= 0.08 && worst <= 0.30, "{errors:?}");
+    assert!(median <= 0.09 && worst <= 0.25, "{errors:?}");
 }
 
 /// `tool` against `obstacle` (at the origin): the all-pairs reference (every contact kept), and
@@ -1577,4 +1581,47 @@ fn the_budgeted_rule_finds_a_wall_crossing_a_rim_past_the_pieces_corners() {
     }
     let (median, worst) = median_and_worst(&errors);
     assert!(median <= 0.05 && worst <= 0.25, "{errors:?}");
+}
+
+/// A bar (a fork's tine, 18 cm long) pressed into a bumpy ball smaller than it, whose
+/// triangles (about 1.3 mm) are smaller than `δ` (2 mm) and whose surface is curved on that
+/// scale (bumps of a tenth of its 2 cm radius): the obstacle's coarse pieces that make `ε`
+/// (`δ` here) stand for triangles whose normals spread by tens of degrees, and their prisms do
+/// not say which part of the bar lies over their surface. The force at 2.5 % against the
+/// all-pairs one over 24 poses: a median of 0.036 and at most 0.089 with the pieces' normal
+/// spread in the stopping rule (`stopping.rs`), 0.073 and 0.184 without.
+#[test]
+fn the_budgeted_rule_holds_bars_on_a_ball_curved_on_the_scale_of_delta() {
+    let (r, delta) = (0.02, 0.002);
+    let ball = bumpy_sphere(4, r, 0.1, 11);
+    let bar = cuboid(Vec3::new(0.09, 0.0015, 0.0015));
+    let obstacles = vec![(ball, Pose::identity())];
+    let mut reference = LodBackend::new(&bar, &obstacles)
+        .unwrap()
+        .with_max_contacts(None);
+    let mut budget = LodBackend::new(&bar, &obstacles).unwrap();
+    let mut rng = Lcg(3);
+    let mut errors = Vec::new();
+    for _ in 0..24 {
+        // Across the top of the ball, in by 0.2–1.6 δ, turned about z and tilted a little.
+        let depth = delta * (0.2 + 1.4 * rng.next());
+        let turn = UnitQuaternion::from_scaled_axis(Vector3::new(
+            0.1 * (rng.next() - 0.5),
+            0.1 * (rng.next() - 0.5),
+            std::f64::consts::TAU * rng.next(),
+        ));
+        let side = Vec3::new(0.006 * (rng.next() - 0.5), 0.006 * (rng.next() - 0.5), 0.0);
+        let pose = Pose {
+            position: side + Vec3::z() * (r + 0.0015 - depth),
+            orientation: turn,
+        };
+        let f0 = net_force(&mut reference, &pose, delta, 0.0);
+        let f = net_force(&mut budget, &pose, delta, 0.025);
+        if f0.norm() > 0.0 {
+            errors.push((f - f0).norm() / f0.norm());
+        }
+    }
+    assert_eq!(errors.len(), 24);
+    let (median, worst) = median_and_worst(&errors);
+    assert!(median <= 0.05 && worst <= 0.12, "{errors:?}");
 }
