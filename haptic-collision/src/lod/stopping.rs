@@ -151,9 +151,9 @@ impl StoppingRule {
     /// stood for 46 triangles whose normals spread by 40°, and their regions, a sliver where the
     /// tool crossed the piece's prism, pushed a fiftieth of what the triangles below them push:
     /// a p90 error of 0.192 at 2.5 %, whatever the budget (its bounds scale with the regions
-    /// found). With the spread: 0.085, and the full suite's worst median 0.039 → 0.030, for 4 %
+    /// found). With the spread: 0.085, and the full suite's worst median 0.039 → 0.030, for 5 %
     /// fewer instructions a jaws query at 2.5 % (the finer pieces' regions need less refining)
-    /// and 10 % more at 0.4 % (`docs/decisions.md`, "Stopping rule", thirtieth session).
+    /// and 9 % more at 0.4 % (`docs/decisions.md`, "Stopping rule", thirtieth session).
     pub(crate) fn spread_height_m(self, delta_m: Real) -> Real {
         match self {
             Self::CoherenceBudget => delta_m,
