@@ -196,27 +196,14 @@ pub(super) fn utensil_in_mug(utensil: &str, n: usize) -> anyhow::Result<Entry> {
 /// curved wall, at coarse levels fewer contacts than the clusters (the clustered force must not
 /// count them).
 pub(super) fn fork_on_cup(n: usize) -> anyhow::Result<Entry> {
-    let meshes = common::meshes_dir();
-    let (tool, _) = collision::load_tool(&meshes.join("basemesh_fork.stl"), 1.0)?;
-    let (cup, _) = TriMesh::load(
-        meshes.join("newell_teacup.stl"),
-        &LoadOptions::with_scale(1.0),
-    )?;
-    let delta = 1e-3;
-    let poses =
-        collision::approach_poses(&tool, &cup, UnitQuaternion::identity(), Vec3::z(), delta, n)?;
-    Ok(Entry {
-        scene: Scene {
-            name: "fork-on-cup".into(),
-            description: "basemesh fork (tool) lowered flat onto the outside of the Newell teacup's wall until it touches, then moved around that pose".into(),
-            tool,
-            obstacle: cup,
-            poses,
-            delta_m: delta,
-            k_c: 2000.0,
-        },
-        family: None,
-    })
+    fork_lowered_onto(
+        "fork-on-cup",
+        "newell_teacup.stl",
+        1.0,
+        1e-3,
+        "basemesh fork (tool) lowered flat onto the outside of the Newell teacup's wall until it touches, then moved around that pose",
+        n,
+    )
 }
 
 /// The basemesh fork lowered flat onto the back of Keenan Crane's cow "Spot", scaled to
@@ -225,29 +212,46 @@ pub(super) fn fork_on_cup(n: usize) -> anyhow::Result<Entry> {
 /// are smaller than `δ` and whose back is curved on that scale, crossed steeply by the tines
 /// as the tool goes in by up to `δ`. (At `δ` = 1 mm the same poses hold every goal.)
 pub(super) fn fork_on_spot(n: usize) -> anyhow::Result<Entry> {
+    fork_lowered_onto(
+        "fork-on-spot",
+        "spot_keenan_5856.stl",
+        0.05,
+        2e-3,
+        "basemesh fork (tool, 18 cm) lowered flat onto the back of Keenan Crane's Spot scaled to 8.5 cm until it touches, then moved around that pose",
+        n,
+    )
+}
+
+/// The basemesh fork lowered flat (along −z, unturned) onto the repository mesh `obstacle`
+/// loaded at `scale` (metres per file unit) until it touches, then moved around that pose
+/// (`collision::approach_poses`), with the penalty reaching `delta_m`.
+fn fork_lowered_onto(
+    name: &str,
+    obstacle: &str,
+    scale: Real,
+    delta_m: Real,
+    description: &str,
+    n: usize,
+) -> anyhow::Result<Entry> {
     let meshes = common::meshes_dir();
     let (tool, _) = collision::load_tool(&meshes.join("basemesh_fork.stl"), 1.0)?;
-    let (spot, _) = TriMesh::load(
-        meshes.join("spot_keenan_5856.stl"),
-        &LoadOptions::with_scale(0.05),
-    )?;
-    let delta = 2e-3;
+    let (obstacle, _) = TriMesh::load(meshes.join(obstacle), &LoadOptions::with_scale(scale))?;
     let poses = collision::approach_poses(
         &tool,
-        &spot,
+        &obstacle,
         UnitQuaternion::identity(),
         Vec3::z(),
-        delta,
+        delta_m,
         n,
     )?;
     Ok(Entry {
         scene: Scene {
-            name: "fork-on-spot".into(),
-            description: "basemesh fork (tool, 18 cm) lowered flat onto the back of Keenan Crane's Spot scaled to 8.5 cm until it touches, then moved around that pose".into(),
+            name: name.into(),
+            description: description.into(),
             tool,
-            obstacle: spot,
+            obstacle,
             poses,
-            delta_m: delta,
+            delta_m,
             k_c: 2000.0,
         },
         family: None,
