@@ -1625,3 +1625,70 @@ fn the_budgeted_rule_holds_bars_on_a_ball_curved_on_the_scale_of_delta() {
     let (median, worst) = median_and_worst(&errors);
     assert!(median <= 0.05 && worst <= 0.12, "{errors:?}");
 }
+
+/// At a first touch a few triangles come within `δ` while the coarse pieces that make `ε` lie
+/// beside each other or beyond the slab, so that the walk writes no region: the net force is
+/// then none and so is the budget, and the pairs that came within reach are walked down to
+/// their triangles (`query::first_touch`). Three first touches of the suite's fork on the cow
+/// (`fork-on-spot`: the repository's fork on Spot at 8.5 cm, `δ` = 2 mm): the all-pairs
+/// reference has two shallow regions at each, and LOD at 2.5 % had none (its force none, an
+/// error of 1); now it has them, and the same force.
+#[test]
+fn a_first_touch_pushes_as_the_surfaces_do() {
+    let dir = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../assets/meshes");
+    let (fork, _) = TriMesh::load(
+        dir.join("basemesh_fork.stl"),
+        &crate::LoadOptions::with_scale(1.0),
+    )
+    .unwrap();
+    let (spot, _) = TriMesh::load(
+        dir.join("spot_keenan_5856.stl"),
+        &crate::LoadOptions::with_scale(0.05),
+    )
+    .unwrap();
+    let com = fork.mass_properties(1000.0).unwrap().centre_of_mass_m;
+    let tool = fork.translated(&-com).unwrap();
+    let obstacles = vec![(spot, Pose::identity())];
+    let mut reference = LodBackend::new(&tool, &obstacles)
+        .unwrap()
+        .with_max_contacts(None);
+    let mut budget = LodBackend::new(&tool, &obstacles).unwrap();
+    let delta = 0.002;
+    for (p, q) in [
+        (
+            [2e-3, 7.421_550_571_918_486e-3, 5.549_989_696_209_397e-2],
+            [-2.165_061_254_187_312_5e-3, 1.249_998_697_917_073_3e-3],
+        ),
+        (
+            [
+                2.143_307_179_915_988e-3,
+                7.124_667_738_178_773e-3,
+                5.548_412_636_472_293e-2,
+            ],
+            [-2.110_817_614_985_085e-3, 1.339_565_592_065_649_8e-3],
+        ),
+        (
+            [
+                1.927_014_696_406_862_4e-3,
+                7.564_857_751_834_469e-3,
+                5.549_595_041_895_051_5e-2,
+            ],
+            [-2.190_764_418_061_725_4e-3, 1.204_382_930_687_821_4e-3],
+        ),
+    ] {
+        let pose = Pose::new(
+            Vec3::from(p),
+            nalgebra::Quaternion::new(
+                (1.0 - q[0] * q[0] - q[1] * q[1] as Real).sqrt(),
+                q[0],
+                q[1],
+                0.0,
+            ),
+        )
+        .unwrap();
+        let f0 = net_force(&mut reference, &pose, delta, 0.0);
+        let f = net_force(&mut budget, &pose, delta, 0.025);
+        assert!(f0.norm() > 0.0);
+        assert!((f - f0).norm() <= 1e-6 * f0.norm(), "{f:?} against {f0:?}");
+    }
+}

@@ -7,8 +7,7 @@
 //!   fork laid on the outside of the teacup's wall (a few small contacts, at coarse levels fewer
 //!   than the clusters), and the fork laid on the back of Keenan Crane's Spot scaled to 8.5 cm,
 //!   `δ` = 2 mm (a smooth obstacle smaller than the tool, its triangles smaller than `δ` and its
-//!   surface curved on that scale: the hardest scene of the suite, whose quick run's 12 poses
-//!   hold a first touch where LOD at 2.5 % has no force and the reference a little).
+//!   surface curved on that scale: the hardest scene of the suite).
 //! - The peg in its hole remeshed (`shapes::split_at_midpoints` for the peg,
 //!   `shapes::split_at_centroids` for the hole, whose thin fans are what meshing tools leave),
 //!   on the same poses: the repository's meshes against the same surfaces tessellated
