@@ -364,6 +364,10 @@ pub(crate) fn collide(
 ///
 /// # Errors
 /// [`LodError::Core`] for a non-finite contact.
+/// The most pairs [`first_touch`] walks down one by one (each compared with every other for
+/// overlaps); beyond them it walks from the roots.
+const FIRST_TOUCH_PAIRS_MAX: usize = 256;
+
 fn first_touch(
     walk: &Walk<'_>,
     scratch: &mut Scratch,
@@ -377,7 +381,17 @@ fn first_touch(
     stack.clear();
     let near =
         |&&(gap, o, _, _): &&(Real, u32, u32, u32)| o == walk.obstacle && gap <= walk.delta_m;
-    for (k, &(_, _, ia, ib)) in apart.iter().enumerate().filter(|(_, x)| near(x)) {
+    // Many pairs within reach and no region (a tool hovering over a wide surface): the whole
+    // walk at `ε` = 0, rather than comparing every pair with every other.
+    let from_root = apart.iter().filter(near).count() > FIRST_TOUCH_PAIRS_MAX;
+    if from_root {
+        stack.push((0, 0));
+    }
+    for (k, &(_, _, ia, ib)) in apart
+        .iter()
+        .enumerate()
+        .filter(|(_, x)| !from_root && near(x))
+    {
         let (a, b) = (&tool.nodes[ia as usize], &obs.nodes[ib as usize]);
         // Two triangles are exact already; a pair inside another's subtrees (a band the budget
         // took out, and the pairs written below it) is walked with it.
