@@ -379,39 +379,38 @@ fn first_touch(
     let below = |i: u32, j: u32, t: u32| (i..i + 2 * t - 1).contains(&j);
     let Scratch { apart, stack, .. } = scratch;
     stack.clear();
-    let near =
-        |&&(gap, o, _, _): &&(Real, u32, u32, u32)| o == walk.obstacle && gap <= walk.delta_m;
+    // The stopped pairs within reach of this obstacle, with their place in `apart`.
+    let near = || {
+        apart
+            .iter()
+            .enumerate()
+            .filter(|&(_, &(gap, o, _, _))| o == walk.obstacle && gap <= walk.delta_m)
+            .map(|(k, &(_, _, ia, ib))| (k, ia, ib))
+    };
     // Many pairs within reach and no region (a tool hovering over a wide surface): the whole
     // walk at `ε` = 0, rather than comparing every pair with every other.
-    let from_root = apart.iter().filter(near).count() > FIRST_TOUCH_PAIRS_MAX;
-    if from_root {
+    if near().count() > FIRST_TOUCH_PAIRS_MAX {
         stack.push((0, 0));
-    }
-    for (k, &(_, _, ia, ib)) in apart
-        .iter()
-        .enumerate()
-        .filter(|(_, x)| !from_root && near(x))
-    {
-        let (a, b) = (&tool.nodes[ia as usize], &obs.nodes[ib as usize]);
-        // Two triangles are exact already; a pair inside another's subtrees (a band the budget
-        // took out, and the pairs written below it) is walked with it.
-        let inside =
-            apart
-                .iter()
-                .enumerate()
-                .filter(|(_, x)| near(x))
-                .any(|(l, &(_, _, ja, jb))| {
-                    let (ta, tb) = (
-                        tool.nodes[ja as usize].triangles,
-                        obs.nodes[jb as usize].triangles,
-                    );
-                    l != k
-                        && below(ja, ia, ta)
-                        && below(jb, ib, tb)
-                        && ((ja, jb) != (ia, ib) || l < k)
-                });
-        if !(inside || a.is_leaf() && b.is_leaf()) {
-            descend(ia, a, ib, b, stack);
+    } else {
+        for (k, ia, ib) in near() {
+            let (a, b) = (&tool.nodes[ia as usize], &obs.nodes[ib as usize]);
+            // Two triangles are exact already; a pair inside another's subtrees (a band the
+            // budget took out, and the pairs written below it), or listed before, is walked
+            // with it.
+            let inside = near().any(|(l, ja, jb)| {
+                let (ta, tb) = (
+                    tool.nodes[ja as usize].triangles,
+                    obs.nodes[jb as usize].triangles,
+                );
+                if (ja, jb) == (ia, ib) {
+                    l < k
+                } else {
+                    below(ja, ia, ta) && below(jb, ib, tb)
+                }
+            });
+            if !(inside || a.is_leaf() && b.is_leaf()) {
+                descend(ia, a, ib, b, stack);
+            }
         }
     }
     let exact = Walk {
