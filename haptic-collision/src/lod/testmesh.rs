@@ -1,4 +1,4 @@
-//! Procedural meshes for the tests: boxes, icospheres, bumpy spheres.
+//! Procedural meshes for the tests: boxes, icospheres, bumpy spheres, cylinders, wavy slabs.
 
 use std::collections::HashMap;
 
@@ -152,6 +152,71 @@ pub fn layered_cylinder(r: Real, h: Real, segments: usize, layers: usize) -> Tri
         let s1 = (s + 1) % n;
         t.push([bottom, s1, s]);
         t.push([top, last + s, last + s1]);
+    }
+    mesh(v, t)
+}
+
+/// A closed slab whose top is a wavy height field over the square `|x|, |y| ≤ half_m`: the sum
+/// of `amplitude_m · sin(2π x / λ + φ) · cos(2π y / λ + ψ)` over `waves` (`(λ, φ, ψ)`), on a
+/// grid of `n × n` quads (their diagonals alternating), over a flat bottom at `z = −depth_m`.
+/// Outward CCW triangles.
+pub fn wavy_slab(
+    half_m: Real,
+    n: usize,
+    amplitude_m: Real,
+    waves: &[(Real, Real, Real)],
+    depth_m: Real,
+) -> TriMesh {
+    let tau = std::f64::consts::TAU;
+    let height = |x: Real, y: Real| {
+        waves
+            .iter()
+            .map(|&(l, p, q)| amplitude_m * (tau * x / l + p).sin() * (tau * y / l + q).cos())
+            .sum::<Real>()
+    };
+    let side = n as u32 + 1;
+    let at = |k: u32| -half_m + 2.0 * half_m * Real::from(k) / n as Real;
+    let mut v = Vec::with_capacity((n + 1) * (n + 1) + 4 * n + 1);
+    for i in 0..side {
+        for j in 0..side {
+            v.push(Vec3::new(at(i), at(j), height(at(i), at(j))));
+        }
+    }
+    let id = |i: u32, j: u32| i * side + j;
+    let mut t = Vec::with_capacity(2 * n * n + 12 * n);
+    for i in 0..side - 1 {
+        for j in 0..side - 1 {
+            let (a, b, c, d) = (id(i, j), id(i + 1, j), id(i + 1, j + 1), id(i, j + 1));
+            if (i + j) % 2 == 0 {
+                t.extend([[a, b, c], [a, c, d]]);
+            } else {
+                t.extend([[a, b, d], [b, c, d]]);
+            }
+        }
+    }
+    // The rim, counter-clockwise seen from above, walled down to the bottom.
+    let last = side - 1;
+    let rim: Vec<u32> = (0..last)
+        .map(|i| id(i, 0))
+        .chain((0..last).map(|j| id(last, j)))
+        .chain((1..=last).rev().map(|i| id(i, last)))
+        .chain((1..=last).rev().map(|j| id(0, j)))
+        .collect();
+    let base = v.len() as u32;
+    for &r in &rim {
+        let p = v[r as usize];
+        v.push(Vec3::new(p.x, p.y, -depth_m));
+    }
+    let m = rim.len() as u32;
+    for k in 0..m {
+        let (a, b) = (rim[k as usize], rim[((k + 1) % m) as usize]);
+        let (a2, b2) = (base + k, base + (k + 1) % m);
+        t.extend([[a, a2, b2], [a, b2, b]]);
+    }
+    let centre = v.len() as u32;
+    v.push(Vec3::new(0.0, 0.0, -depth_m));
+    for k in 0..m {
+        t.push([centre, base + (k + 1) % m, base + k]);
     }
     mesh(v, t)
 }
