@@ -48,8 +48,8 @@ use crate::common;
 
 mod scenes;
 use scenes::{
-    Entry, bolt_and_nut, boxes, file_scene, fork_on_cup, fork_on_spot, gears, peg_in_bushing,
-    peg_in_hole, utensil_in_mug,
+    Entry, ball_in_socket, bolt_and_nut, boxes, file_scene, fork_on_cup, fork_on_spot, gears,
+    peg_in_bushing, peg_in_hole, ring_on_cone, utensil_in_mug,
 };
 
 /// A row of `suite.json`.
@@ -171,6 +171,8 @@ pub(super) fn run(
     entries.extend(gears(n)?);
     entries.extend(bolt_and_nut(n)?);
     entries.extend(peg_in_bushing(n)?);
+    entries.extend(ball_in_socket(n)?);
+    entries.extend(ring_on_cone(n)?);
 
     if let Some(only) = only {
         select(&mut entries, only)?;
@@ -189,14 +191,11 @@ pub(super) fn run(
     // Tessellation error of each generated shape: fine against coarse, pose by pose.
     // `None` where the scene has no partner tessellation in this run (`--only`).
     let tessellation = |name: &str| -> anyhow::Result<Option<(Real, Real)>> {
-        let Some(name) = name_static(name) else {
-            return Ok(None);
-        };
         let find = |d: usize| {
             entries
                 .iter()
                 .zip(&measured)
-                .find(|(e, _)| e.family == Some((name, d)))
+                .find(|(e, _)| e.family.is_some_and(|f| f == (name, d)))
         };
         let (Some((_, coarse)), Some((_, fine))) = (find(1), find(2)) else {
             return Ok(None);
@@ -366,14 +365,6 @@ pub(super) fn run(
     };
     common::write_json(&dir.join("suite.json"), &report)?;
     Ok(worst)
-}
-
-/// The names of the scenes with two tessellations (generated or remeshed), as the `'static` strings
-/// their entries carry.
-fn name_static(name: &str) -> Option<&'static str> {
-    ["peg-in-hole", "boxes", "gears", "bolt-nut", "peg-bushing"]
-        .into_iter()
-        .find(|n| *n == name)
 }
 
 #[cfg(test)]

@@ -1,6 +1,7 @@
 //! Procedural closed triangle meshes for the collision benchmark suite: a box, an involute spur
-//! gear (alone or as a meshing pair), a threaded rod and its nut, a round peg and its bushing;
-//! and remeshed copies of any mesh (the same surface, another tessellation).
+//! gear (alone or as a meshing pair), a threaded rod and its nut, a round peg and its bushing,
+//! a ball and its socket, a ring and a cone; and remeshed copies of any mesh (the same surface,
+//! another tessellation).
 //!
 //! Every mesh is closed and watertight (every edge shared by exactly two triangles, vertices
 //! shared along seams), its triangles counter-clockwise seen from outside, and it is built with
@@ -17,10 +18,12 @@ use haptic_collision::{DegeneratePolicy, TriMesh};
 use haptic_core::{Real, Vec3};
 
 mod remesh;
+mod revolved;
 mod round;
 mod thread;
 
 pub use remesh::{split_at_centroids, split_at_midpoints};
+pub use revolved::{ball, cone, ring, socket};
 pub use round::{bushing, round_peg};
 #[cfg(test)]
 use thread::ThreadProfile;

@@ -417,3 +417,57 @@ fn remeshed_copies_keep_the_surface() -> anyhow::Result<()> {
     }
     Ok(())
 }
+
+#[test]
+fn surfaces_of_revolution_are_closed_with_plausible_volume() -> anyhow::Result<()> {
+    let (r, inner, outer) = (10.0 * MM, 10.2 * MM, 13.0 * MM);
+    let (ring_r, tube, cone_r, height) = (12.0 * MM, 3.0 * MM, 20.0 * MM, 40.0 * MM);
+    let mut meshes = Vec::new();
+    for density in [1, 2] {
+        let shapes = [
+            ball(r, density)?,
+            socket(inner, outer, density)?,
+            ring(ring_r, tube, density)?,
+            cone(cone_r, height, density)?,
+        ];
+        let exact = [
+            4.0 / 3.0 * PI * r.powi(3),
+            2.0 / 3.0 * PI * (outer.powi(3) - inner.powi(3)),
+            2.0 * PI * PI * ring_r * tube * tube,
+            PI * cone_r * cone_r * height / 3.0,
+        ];
+        let triangles = [
+            96 * density * (24 * density - 1),
+            2304 * density * density,
+            2048 * density * density,
+            48 * density * (16 * density - 2),
+        ];
+        // Inscribed: a little less than the smooth solid, by no more than twice what the regular
+        // polygons about the axis and along the profile (a full circle of it) lose in area.
+        let around = polygon_factor(48 * density);
+        let lower = [
+            around * polygon_factor(48 * density),
+            around * polygon_factor(48 * density),
+            polygon_factor(64 * density) * polygon_factor(16 * density),
+            around,
+        ];
+        for (((mesh, exact), count), lower) in shapes.iter().zip(exact).zip(triangles).zip(lower) {
+            assert_closed(mesh);
+            assert_eq!(mesh.triangles().len(), count);
+            let v = volume(mesh)?;
+            assert!(
+                v < exact && v > exact * lower * lower,
+                "volume {v} vs {exact}"
+            );
+        }
+        meshes.push(shapes);
+    }
+    for (coarse, fine) in meshes[0].iter().zip(&meshes[1]) {
+        assert_ratio(coarse, fine);
+    }
+    assert!(socket(inner, inner, 1).is_err());
+    assert!(ring(tube, tube, 1).is_err());
+    assert!(cone(cone_r, height, 0).is_err());
+    assert!(ball(-r, 1).is_err());
+    Ok(())
+}

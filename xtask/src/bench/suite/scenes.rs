@@ -414,3 +414,85 @@ pub(super) fn peg_in_bushing(n: usize) -> anyhow::Result<Vec<Entry>> {
         |_, _, _, n| Ok(peg_path(n, Vec3::new(0.0, 0.0, 0.5 * LENGTH))),
     )
 }
+
+/// A ball (20 mm) in a spherical socket 0.2 mm wider (a ball joint): pressed into the bottom
+/// of the socket by up to 0.25 mm and lifted 0.05 mm off it, ±0.05 mm sideways, swivelling
+/// about a tilted axis by up to 30°, so that its facets slide over the socket's.
+pub(super) fn ball_in_socket(n: usize) -> anyhow::Result<Vec<Entry>> {
+    const RADIUS: Real = 0.01;
+    const CLEARANCE: Real = 2e-4;
+    generated(
+        "ball-socket",
+        n,
+        5e-4,
+        |d| {
+            Ok((
+                shapes::ball(RADIUS, d)?,
+                shapes::socket(RADIUS + CLEARANCE, 0.013, d)?,
+                "a ball (tool; 20 mm) in a hemispherical socket 0.2 mm wider, pressed into its bottom by up to 0.25 mm, ±0.05 mm sideways, swivelling by up to 30°".into(),
+            ))
+        },
+        |_, _, com, n| {
+            Ok(path(
+                n,
+                com - Vec3::z() * CLEARANCE,
+                |s| {
+                    Vec3::new(
+                        5e-5 * s.cos(),
+                        5e-5 * (2.0 * s).sin(),
+                        -1e-4 - 1.5e-4 * (3.0 * s).sin(),
+                    )
+                },
+                |s| {
+                    UnitQuaternion::from_scaled_axis(
+                        Vec3::new(s.cos(), s.sin(), 0.5) * 0.5 * s.sin(),
+                    )
+                },
+            ))
+        },
+    )
+}
+
+/// A ring (24 mm across its tube's centre line, tube 6 mm) seated on a cone (40 mm across its
+/// base, 40 mm tall), a valve on its seat: a line contact all around, whose sideways pushes
+/// cancel. Lowered by up to 0.3 mm past the smooth surfaces' seat and lifted 0.1 mm off it,
+/// ±0.1 mm sideways, rocking by 1°.
+pub(super) fn ring_on_cone(n: usize) -> anyhow::Result<Vec<Entry>> {
+    const RING: Real = 0.012;
+    const TUBE: Real = 0.003;
+    const BASE: Real = 0.02;
+    const HEIGHT: Real = 0.04;
+    // Where the smooth tube touches the smooth cone's side `r = BASE (1 − z / HEIGHT)`: its
+    // centre circle `TUBE` from that line.
+    let seat = HEIGHT / BASE * (BASE - RING - TUBE * (1.0 + (BASE / HEIGHT).powi(2)).sqrt());
+    generated(
+        "ring-cone",
+        n,
+        5e-4,
+        |d| {
+            Ok((
+                shapes::ring(RING, TUBE, d)?,
+                shapes::cone(BASE, HEIGHT, d)?,
+                "a ring (tool; 24 mm, tube 6 mm) seated on a cone (40 mm base, 40 mm tall), lowered by up to 0.3 mm past its seat, ±0.1 mm sideways, rocking by 1°".into(),
+            ))
+        },
+        move |_, _, com, n| {
+            Ok(path(
+                n,
+                com + Vec3::z() * seat,
+                |s| {
+                    Vec3::new(
+                        1e-4 * (2.0 * s).cos(),
+                        1e-4 * s.sin(),
+                        1e-4 - 2e-4 * (1.0 + (3.0 * s).sin()),
+                    )
+                },
+                |s| {
+                    UnitQuaternion::from_scaled_axis(
+                        Vec3::new(s.sin(), s.cos(), 0.0) * 1f64.to_radians(),
+                    )
+                },
+            ))
+        },
+    )
+}
