@@ -1626,6 +1626,21 @@ fn the_budgeted_rule_holds_bars_on_a_ball_curved_on_the_scale_of_delta() {
     assert!(median <= 0.05 && worst <= 0.12, "{errors:?}");
 }
 
+/// The repository's mesh `name` (`assets/meshes`) at `scale` (m per file unit).
+fn asset(name: &str, scale: Real) -> TriMesh {
+    let dir = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../assets/meshes");
+    TriMesh::load(dir.join(name), &crate::LoadOptions::with_scale(scale))
+        .unwrap()
+        .0
+}
+
+/// [`asset`] in its body frame: moved so that its centre of mass is the origin.
+fn asset_tool(name: &str, scale: Real) -> TriMesh {
+    let mesh = asset(name, scale);
+    let com = mesh.mass_properties(1000.0).unwrap().centre_of_mass_m;
+    mesh.translated(&-com).unwrap()
+}
+
 /// At a first touch a few triangles come within `δ` while the coarse pieces that make `ε` lie
 /// beside each other or beyond the slab, so that the walk writes no region: the net force is
 /// then none and so is the budget, and the pairs that came within reach are walked down to
@@ -1635,20 +1650,8 @@ fn the_budgeted_rule_holds_bars_on_a_ball_curved_on_the_scale_of_delta() {
 /// error of 1); now it has them, and the same force.
 #[test]
 fn a_first_touch_pushes_as_the_surfaces_do() {
-    let dir = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../assets/meshes");
-    let (fork, _) = TriMesh::load(
-        dir.join("basemesh_fork.stl"),
-        &crate::LoadOptions::with_scale(1.0),
-    )
-    .unwrap();
-    let (spot, _) = TriMesh::load(
-        dir.join("spot_keenan_5856.stl"),
-        &crate::LoadOptions::with_scale(0.05),
-    )
-    .unwrap();
-    let com = fork.mass_properties(1000.0).unwrap().centre_of_mass_m;
-    let tool = fork.translated(&-com).unwrap();
-    let obstacles = vec![(spot, Pose::identity())];
+    let tool = asset_tool("basemesh_fork.stl", 1.0);
+    let obstacles = vec![(asset("spot_keenan_5856.stl", 0.05), Pose::identity())];
     let mut reference = LodBackend::new(&tool, &obstacles)
         .unwrap()
         .with_max_contacts(None);
@@ -1704,14 +1707,7 @@ fn a_first_touch_pushes_as_the_surfaces_do() {
 /// pushes, 35 poses pushed where the surfaces do not; now one does, at 10⁻²² m³.
 #[test]
 fn a_first_touch_holds_the_regions_left_against_the_force_left() {
-    let dir = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../assets/meshes");
-    let (spoon, _) = TriMesh::load(
-        dir.join("newell_teaspoon.stl"),
-        &crate::LoadOptions::with_scale(1.0),
-    )
-    .unwrap();
-    let com = spoon.mass_properties(1000.0).unwrap().centre_of_mass_m;
-    let tool = spoon.translated(&-com).unwrap();
+    let tool = asset_tool("newell_teaspoon.stl", 1.0);
     let waves = [(0.08, 0.3, 1.1), (0.05, 2.0, 0.4), (0.031, 4.1, 5.0)];
     let slab = super::testmesh::wavy_slab(0.1, 60, 0.004, &waves, 0.01);
     let obstacles = vec![(slab, Pose::identity())];

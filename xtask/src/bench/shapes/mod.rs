@@ -454,6 +454,15 @@ fn check_positive(what: &str, value: Real) -> anyhow::Result<()> {
     Ok(())
 }
 
+/// Checks that the size `what` is below the size `limit_what` (both already checked positive).
+fn check_below(what: &str, value: Real, limit_what: &str, limit: Real) -> anyhow::Result<()> {
+    ensure!(
+        value < limit,
+        "{what} = {value} must be below {limit_what} = {limit}"
+    );
+    Ok(())
+}
+
 /// Checks that `count` vertices can be addressed by `u32` indices.
 fn ensure_indexable(count: usize) -> anyhow::Result<()> {
     ensure!(

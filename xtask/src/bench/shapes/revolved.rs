@@ -9,11 +9,10 @@
 
 use std::f64::consts::{FRAC_PI_2, PI, TAU};
 
-use anyhow::ensure;
 use haptic_collision::TriMesh;
 use haptic_core::{Real, Vec3};
 
-use super::{build, check_density, check_positive, ensure_indexable};
+use super::{build, check_below, check_density, check_positive, ensure_indexable};
 
 /// Segments about the axis of a ball, a socket and a cone at density 1.
 const SEGMENTS: usize = 48;
@@ -130,10 +129,12 @@ pub fn socket(
     check_density(density)?;
     check_positive("inner_radius_m", inner_radius_m)?;
     check_positive("outer_radius_m", outer_radius_m)?;
-    ensure!(
-        inner_radius_m < outer_radius_m,
-        "inner_radius_m = {inner_radius_m} must be below outer_radius_m = {outer_radius_m}"
-    );
+    check_below(
+        "inner_radius_m",
+        inner_radius_m,
+        "outer_radius_m",
+        outer_radius_m,
+    )?;
     let rows = QUARTER_ROWS * density;
     // Up the outside to the rim, across it, down the cavity to its bottom.
     let mut points = arc(outer_radius_m, 0.0, 0.0, FRAC_PI_2, rows);
@@ -157,10 +158,7 @@ pub fn ring(radius_m: Real, tube_radius_m: Real, density: usize) -> anyhow::Resu
     check_density(density)?;
     check_positive("radius_m", radius_m)?;
     check_positive("tube_radius_m", tube_radius_m)?;
-    ensure!(
-        tube_radius_m < radius_m,
-        "tube_radius_m = {tube_radius_m} must be below radius_m = {radius_m}"
-    );
+    check_below("tube_radius_m", tube_radius_m, "radius_m", radius_m)?;
     let n = TUBE_SEGMENTS * density;
     // Counter-clockwise in (r, z), from the outermost point.
     let points = (0..n)

@@ -2,11 +2,12 @@
 //! nowhere (the peg's and the bushing's numbers of segments have no common factor but 1 or 2),
 //! so that their contacts push nearly all ways at once and cancel.
 
-use anyhow::ensure;
 use haptic_collision::TriMesh;
 use haptic_core::Real;
 
-use super::{build, check_density, check_positive, ensure_indexable, lateral_grid, star_prism};
+use super::{
+    build, check_below, check_density, check_positive, ensure_indexable, lateral_grid, star_prism,
+};
 
 /// Segments around the peg at density 1.
 const PEG_SEGMENTS: usize = 40;
@@ -50,10 +51,12 @@ pub fn bushing(
     check_positive("bore_radius_m", bore_radius_m)?;
     check_positive("outer_radius_m", outer_radius_m)?;
     check_positive("length_m", length_m)?;
-    ensure!(
-        bore_radius_m < outer_radius_m,
-        "bore_radius_m = {bore_radius_m} must be below outer_radius_m = {outer_radius_m}"
-    );
+    check_below(
+        "bore_radius_m",
+        bore_radius_m,
+        "outer_radius_m",
+        outer_radius_m,
+    )?;
     let segments = BUSHING_SEGMENTS * density;
     let layers = 5 * density;
     ensure_indexable(2 * segments * (layers + 1))?;

@@ -21,7 +21,7 @@ use anyhow::ensure;
 use haptic_collision::TriMesh;
 use haptic_core::{Real, Vec3};
 
-use super::{build, check_density, check_positive, ensure_indexable, lateral_grid};
+use super::{build, check_below, check_density, check_positive, ensure_indexable, lateral_grid};
 
 /// An externally threaded rod (a bolt without head), axis z from 0 to `length_m`, with a
 /// right-handed single-start thread (the crest climbs one pitch per counter-clockwise turn
@@ -182,10 +182,7 @@ impl ThreadProfile {
         check_positive("minor_radius_m", minor)?;
         check_positive("major_radius_m", major)?;
         check_positive("pitch_m", pitch)?;
-        ensure!(
-            minor < major,
-            "minor_radius_m = {minor} must be below major_radius_m = {major}"
-        );
+        check_below("minor_radius_m", minor, "major_radius_m", major)?;
         Ok(Self {
             major,
             minor,
