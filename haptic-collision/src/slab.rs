@@ -8,8 +8,8 @@
 //! `−δ ≤ h ≤ δ`. The region's contact keeps what the clustering reads of the integral over the
 //! region: `∫g`, `∫g x` and `∫g (g − δ)`, that is the weight, its centroid and its weighted mean
 //! depth (area `(∫g)²/∫g²`, depth `∫g²/∫g − δ`, at the `g`-weighted centroid). They are exact:
-//! closed forms on the fan of the clipped polygon where `g` is linear, a quadrature of degree 5
-//! within the spread's band at the top (`Sums`).
+//! closed forms on the fan of the clipped polygon, where `g` is linear and within the spread's
+//! band at the top, where it is a power of the linear distance to the band's top (`Sums`).
 //!
 //! Because the prisms of neighbouring obstacle triangles only share walls, and a tool polygon's
 //! integrals add up over any partition of it, the sums over triangle pairs do not depend on how
@@ -405,7 +405,7 @@ impl Weight {
     }
 
     /// `∫_{−δ}^{x} w` and `∫_{−δ}^{x} w²`, with `w` continued linearly below `−δ`.
-    #[inline]
+    #[cfg(test)]
     fn antiderivatives(&self, x: Real) -> (Real, Real) {
         let d = self.delta;
         let x = x.min(d);
@@ -416,8 +416,9 @@ impl Weight {
         )
     }
 
-    /// `(E[w(h + e)], E[w(h + e)²])`.
-    #[inline]
+    /// `(E[w(h + e)], E[w(h + e)²])`: the definition [`Sums`] integrates in closed form (the
+    /// tests check one against the other).
+    #[cfg(test)]
     fn at(&self, h: Real) -> (Real, Real) {
         if self.s <= 0.0 {
             let w = if h.abs() <= self.delta {
@@ -439,30 +440,14 @@ impl Weight {
 /// `E[w²] = (δ − h)² + s²/3`, above it (within `s` of the top) `E[w] = q²/4s` and
 /// `E[w²] = q³/6s`, `q = δ + s − h`. The polygon is cut at the knee; the part below, where the
 /// weight is linear (all of it without a spread), is summed in closed form from each fan
-/// triangle's vertices, and the band above by a quadrature exact for polynomials of degree 5
-/// (Dunavant's seven points).
+/// triangle's vertices, and so is the band above, where the weights are powers of the linear
+/// `q`.
 #[derive(Debug, Default)]
 struct Sums {
     g: Real,
     gx: Vec3,
     g2: Real,
 }
-
-/// Dunavant's degree-5 rule: barycentric points (as `(a, b)`, the point `a` at one vertex and
-/// `b` at the two others, in every rotation) and weights.
-const DUNAVANT5: [(Real, Real, Real); 3] = [
-    (1.0 / 3.0, 1.0 / 3.0, 0.225),
-    (
-        0.059_715_871_789_770,
-        0.470_142_064_105_115,
-        0.132_394_152_788_506,
-    ),
-    (
-        0.797_426_985_353_087,
-        0.101_286_507_323_456,
-        0.125_939_180_544_827,
-    ),
-];
 
 /// The corners of a polygon's fan triangles, `(v0, v_k, v_k+1)`, with the triangle's area
 /// (degenerate ones left out; none for fewer than three vertices).
@@ -515,22 +500,32 @@ impl Sums {
         }
     }
 
-    /// Within `s` of the top: a polynomial of degree 3 in the height, by the quadrature.
+    /// Within `s` of the top: `E[w] = q²/4s` and `E[w²] = q³/6s` with `q = δ + s − h` linear
+    /// over each fan triangle, integrated in closed form from its vertices' `q`: over a triangle
+    /// of area `A` with the barycentric coordinates `λᵢ`, `∫ λ₀^a λ₁^b λ₂^c = 2A a! b! c! /
+    /// (a + b + c + 2)!`, so `∫q² = A/6 h₂(q)` and `∫q³ = A/10 h₃(q)` (`h_k` the complete
+    /// homogeneous symmetric polynomials of the three `qᵢ`), and `∫x q² = Σᵢ xᵢ ∫λᵢ q²` with
+    /// `∫λᵢ q² = A/30 (3qᵢ² + qⱼ² + qₖ² + 2qᵢ(qⱼ + qₖ) + qⱼqₖ)`. (Dunavant's seven-point
+    /// quadrature, exact for these, cost six times as much; the tests keep it as the check.)
     fn add_band(&mut self, p: &Poly, weight: &Weight) {
-        for ([v0, v1, v2], area) in fan(p) {
-            let mut at = |x: Vec3, wt: Real| {
-                let (g, g2) = weight.at(x.z);
-                self.g += area * wt * g;
-                self.gx += x * (area * wt * g);
-                self.g2 += area * wt * g2;
+        let top = weight.delta + weight.s;
+        let (k1, k2) = (0.25 / weight.s, 1.0 / (6.0 * weight.s));
+        for (v, area) in fan(p) {
+            let q = v.map(|x| top - x.z);
+            let (q0, q1, q2) = (q[0], q[1], q[2]);
+            let (s1, s2) = (q0 + q1 + q2, q0 * q0 + q1 * q1 + q2 * q2);
+            // h₂ = (s1² + s2)/2, h₃ = (s1³ + 3 s1 s2 + 2 Σq³)/6.
+            let cubes = q0 * q0 * q0 + q1 * q1 * q1 + q2 * q2 * q2;
+            let h2 = 0.5 * (s1 * s1 + s2);
+            let h3 = (s1 * s1 * s1 + 3.0 * s1 * s2 + 2.0 * cubes) / 6.0;
+            // `∫λᵢ q²` over `A/30`, for the corner `i`.
+            let lam = |i: usize| {
+                let (qi, qj, qk) = (q[i], q[(i + 1) % 3], q[(i + 2) % 3]);
+                3.0 * qi * qi + qj * qj + qk * qk + 2.0 * qi * (qj + qk) + qj * qk
             };
-            let (a0, b0, w0) = DUNAVANT5[0];
-            at(v0 * a0 + v1 * b0 + v2 * b0, w0);
-            for &(a, b, wt) in &DUNAVANT5[1..] {
-                at(v0 * a + v1 * b + v2 * b, wt);
-                at(v0 * b + v1 * a + v2 * b, wt);
-                at(v0 * b + v1 * b + v2 * a, wt);
-            }
+            self.g += area / 6.0 * h2 * k1;
+            self.gx += (v[0] * lam(0) + v[1] * lam(1) + v[2] * lam(2)) * (area / 30.0 * k1);
+            self.g2 += area / 10.0 * h3 * k2;
         }
     }
 }

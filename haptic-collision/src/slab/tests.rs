@@ -287,6 +287,44 @@ fn weight_by_sum(delta: Real, s: Real, h: Real) -> (Real, Real) {
     (g, g2)
 }
 
+/// Dunavant's degree-5 rule: barycentric points (as `(a, b)`, the point `a` at one vertex and
+/// `b` at the two others, in every rotation) and weights.
+const DUNAVANT5: [(Real, Real, Real); 3] = [
+    (1.0 / 3.0, 1.0 / 3.0, 0.225),
+    (
+        0.059_715_871_789_770,
+        0.470_142_064_105_115,
+        0.132_394_152_788_506,
+    ),
+    (
+        0.797_426_985_353_087,
+        0.101_286_507_323_456,
+        0.125_939_180_544_827,
+    ),
+];
+
+/// The band's sums by Dunavant's rule (exact for polynomials of degree 5, so for the band's
+/// weights, of degree 3): what `Sums::add_band` computed before its closed form.
+fn band_by_quadrature(p: &Poly, weight: &Weight) -> Sums {
+    let mut sums = Sums::default();
+    for ([v0, v1, v2], area) in fan(p) {
+        let mut at = |x: Vec3, wt: Real| {
+            let (g, g2) = weight.at(x.z);
+            sums.g += area * wt * g;
+            sums.gx += x * (area * wt * g);
+            sums.g2 += area * wt * g2;
+        };
+        let (a0, b0, w0) = DUNAVANT5[0];
+        at(v0 * a0 + v1 * b0 + v2 * b0, w0);
+        for &(a, b, wt) in &DUNAVANT5[1..] {
+            at(v0 * a + v1 * b + v2 * b, wt);
+            at(v0 * b + v1 * a + v2 * b, wt);
+            at(v0 * b + v1 * b + v2 * a, wt);
+        }
+    }
+    sums
+}
+
 proptest! {
     /// The closed form of the spread weight against a direct average.
     #[test]
@@ -295,6 +333,31 @@ proptest! {
         let (gs, g2s) = weight_by_sum(DELTA, s, h);
         prop_assert!((g - gs).abs() < 1e-7 * DELTA, "{g} {gs}");
         prop_assert!((g2 - g2s).abs() < 1e-7 * DELTA * DELTA, "{g2} {g2s}");
+    }
+
+    /// The band's closed form against the quadrature, to roundoff, on polygons within the
+    /// band (heights between the knee and the top).
+    #[test]
+    fn the_bands_closed_form_is_its_quadrature(
+        xy in prop::array::uniform10(-3e-3..3e-3f64),
+        h in prop::array::uniform5(0.0..1.0f64),
+        s in 1e-5..3e-3f64,
+        n in 3usize..6,
+    ) {
+        let weight = Weight::new(DELTA, s);
+        let mut poly: Poly = ([[0.0; 3]; MAX_CLIPPED], n);
+        for (k, p) in poly.0[..n].iter_mut().enumerate() {
+            *p = [xy[2 * k], xy[2 * k + 1], DELTA - s + h[k] * 2.0 * s];
+        }
+        let mut closed = Sums::default();
+        closed.add_band(&poly, &weight);
+        let quadrature = band_by_quadrature(&poly, &weight);
+        let area: Real = fan(&poly).map(|(_, a)| a).sum();
+        prop_assume!(area > 1e-9);
+        let scale = area * 2.0 * s;
+        prop_assert!((closed.g - quadrature.g).abs() <= 1e-12 * scale, "{} {}", closed.g, quadrature.g);
+        prop_assert!((closed.gx - quadrature.gx).norm() <= 1e-12 * scale * 1e-2);
+        prop_assert!((closed.g2 - quadrature.g2).abs() <= 1e-12 * scale * 2.0 * s);
     }
 
     /// The closed forms and the band's quadrature against the spread weight summed over a
