@@ -336,7 +336,7 @@ proptest! {
     }
 
     /// The band's closed form against the quadrature, to roundoff, on polygons within the
-    /// band (heights between the knee and the top).
+    /// band (heights between the knee and the top), upright ones included.
     #[test]
     fn the_bands_closed_form_is_its_quadrature(
         xy in prop::array::uniform10(-3e-3..3e-3f64),
@@ -354,10 +354,13 @@ proptest! {
         let quadrature = band_by_quadrature(&poly, &weight);
         let area: Real = fan(&poly).map(|(_, a)| a).sum();
         prop_assume!(area > 1e-9);
-        let scale = area * 2.0 * s;
-        prop_assert!((closed.g - quadrature.g).abs() <= 1e-12 * scale, "{} {}", closed.g, quadrature.g);
-        prop_assert!((closed.gx - quadrature.gx).norm() <= 1e-12 * scale * 1e-2);
-        prop_assert!((closed.g2 - quadrature.g2).abs() <= 1e-12 * scale * 2.0 * s);
+        // The quadrature's own roundoff: `Weight::at` takes differences of antiderivatives of
+        // size `2δ²` and `8δ³/3` over `2s`, which lose digits as `s` shrinks.
+        let tol_g = 1e-13 * area * DELTA * DELTA / s + 1e-12 * quadrature.g.abs();
+        let tol_g2 = 1e-13 * area * 4.0 * DELTA.powi(3) / (3.0 * s) + 1e-12 * quadrature.g2.abs();
+        prop_assert!((closed.g - quadrature.g).abs() <= tol_g, "{} {}", closed.g, quadrature.g);
+        prop_assert!((closed.gx - quadrature.gx).norm() <= tol_g * 5e-3);
+        prop_assert!((closed.g2 - quadrature.g2).abs() <= tol_g2, "{} {}", closed.g2, quadrature.g2);
     }
 
     /// The closed forms and the band's quadrature against the spread weight summed over a
