@@ -204,7 +204,7 @@ pub(crate) fn place_piece(
 /// A lower bound on the distance from the polygon `poly` to anything in the plane `(n, p0)`: how
 /// far its nearest vertex is when all its vertices lie on one side, 0 when they straddle it.
 #[inline]
-fn plane_gap(poly: &[Vec3], n: &Vec3, p0: &Vec3) -> Real {
+pub(crate) fn plane_gap(poly: &[Vec3], n: &Vec3, p0: &Vec3) -> Real {
     let (mut lo, mut hi) = (Real::INFINITY, Real::NEG_INFINITY);
     for v in poly {
         let h = n.dot(&(v - p0));
