@@ -298,74 +298,14 @@ pub fn crossing_witness(a: &[Vec3], na: &Vec3, b: &[Vec3], nb: &Vec3) -> Option<
 /// Exact closest points / penetration between two planar convex polygons (`a` with unit normal
 /// `na`, `b` with `nb`, both CCW about their normals).
 pub fn convex_polygon_pair(a: &[Vec3], na: &Vec3, b: &[Vec3], nb: &Vec3) -> PairContact {
-    let (ma, mb) = (a.len(), b.len());
     let witness = if let Some(x) = crossing_witness(a, na, b, nb) {
         Some(x)
     } else {
-        // Distance: vertex–polygon and edge–edge candidates.
-        let mut best_d2 = Real::INFINITY;
-        let mut pa = a[0];
-        let mut pb = b[0];
-        for v in a {
-            // The plane distance is a lower bound on the distance to the polygon.
-            let h = nb.dot(&(v - b[0]));
-            if h * h >= best_d2 {
-                continue;
-            }
-            let c = closest_point_on_polygon(v, b, nb);
-            let d2 = (c - v).norm_squared();
-            if d2 < best_d2 {
-                best_d2 = d2;
-                pa = *v;
-                pb = c;
-            }
+        let (pa, pb) = closest_points_below(a, na, b, nb, Real::INFINITY).unwrap_or((a[0], b[0]));
+        if let Some(pc) = apart(pa, pb) {
+            return pc;
         }
-        for v in b {
-            let h = na.dot(&(v - a[0]));
-            if h * h >= best_d2 {
-                continue;
-            }
-            let c = closest_point_on_polygon(v, a, na);
-            let d2 = (c - v).norm_squared();
-            if d2 < best_d2 {
-                best_d2 = d2;
-                pa = c;
-                pb = *v;
-            }
-        }
-        for i in 0..ma {
-            let (a0, a1) = (&a[i], &a[(i + 1) % ma]);
-            let mid_a = (a0 + a1) * 0.5;
-            let half_a = 0.5 * (a1 - a0).norm();
-            for j in 0..mb {
-                let (b0, b1) = (&b[j], &b[(j + 1) % mb]);
-                // Cheap lower bound: the edges lie in balls about their midpoints.
-                let lower = (mid_a - (b0 + b1) * 0.5).norm() - half_a - 0.5 * (b1 - b0).norm();
-                if lower > 0.0 && lower * lower >= best_d2 {
-                    continue;
-                }
-                let (c1, c2) = closest_points_segments(a0, a1, b0, b1);
-                let d2 = (c2 - c1).norm_squared();
-                if d2 < best_d2 {
-                    best_d2 = d2;
-                    pa = c1;
-                    pb = c2;
-                }
-            }
-        }
-        // Distance and normal from the closest points' difference (a zero or non-finite one
-        // falls through to the touching case).
-        let gap = pb - pa;
-        let dist = gap.norm();
-        if dist > 0.0 && dist.is_finite() {
-            return PairContact {
-                p_a: pa,
-                p_b: pb,
-                n: gap / dist,
-                depth: -dist,
-                distance: dist,
-            };
-        }
+        // A zero or non-finite distance falls through to the touching case.
         Some((pa + pb) * 0.5)
     };
     let w = witness.unwrap_or(a[0]);
@@ -377,6 +317,84 @@ pub fn convex_polygon_pair(a: &[Vec3], na: &Vec3, b: &[Vec3], nb: &Vec3) -> Pair
         depth,
         distance: 0.0,
     }
+}
+
+/// The closest points `(on a, on b)` of two planar convex polygons that do not cross (`a` with
+/// unit normal `na`, `b` with `nb`), where they are nearer than `limit_m` (m): the nearest of
+/// the vertex–polygon and edge–edge candidates, each skipped where a lower bound (its plane
+/// distance, or the balls about the two edges) is already no nearer than the best so far, so
+/// that a limit only saves work. `None` where no candidate is nearer than the limit. Polygons
+/// either of which lies wholly on one side of the other's plane, at a positive distance from
+/// it, do not cross; [`apart`] makes the pair result.
+pub fn closest_points_below(
+    a: &[Vec3],
+    na: &Vec3,
+    b: &[Vec3],
+    nb: &Vec3,
+    limit_m: Real,
+) -> Option<(Vec3, Vec3)> {
+    let (ma, mb) = (a.len(), b.len());
+    let mut best_d2 = limit_m * limit_m;
+    let mut closest = None;
+    for v in a {
+        // The plane distance is a lower bound on the distance to the polygon.
+        let h = nb.dot(&(v - b[0]));
+        if h * h >= best_d2 {
+            continue;
+        }
+        let c = closest_point_on_polygon(v, b, nb);
+        let d2 = (c - v).norm_squared();
+        if d2 < best_d2 {
+            best_d2 = d2;
+            closest = Some((*v, c));
+        }
+    }
+    for v in b {
+        let h = na.dot(&(v - a[0]));
+        if h * h >= best_d2 {
+            continue;
+        }
+        let c = closest_point_on_polygon(v, a, na);
+        let d2 = (c - v).norm_squared();
+        if d2 < best_d2 {
+            best_d2 = d2;
+            closest = Some((c, *v));
+        }
+    }
+    for i in 0..ma {
+        let (a0, a1) = (&a[i], &a[(i + 1) % ma]);
+        let mid_a = (a0 + a1) * 0.5;
+        let half_a = 0.5 * (a1 - a0).norm();
+        for j in 0..mb {
+            let (b0, b1) = (&b[j], &b[(j + 1) % mb]);
+            // Cheap lower bound: the edges lie in balls about their midpoints.
+            let lower = (mid_a - (b0 + b1) * 0.5).norm() - half_a - 0.5 * (b1 - b0).norm();
+            if lower > 0.0 && lower * lower >= best_d2 {
+                continue;
+            }
+            let (c1, c2) = closest_points_segments(a0, a1, b0, b1);
+            let d2 = (c2 - c1).norm_squared();
+            if d2 < best_d2 {
+                best_d2 = d2;
+                closest = Some((c1, c2));
+            }
+        }
+    }
+    closest
+}
+
+/// The pair result of polygons apart with the closest points `pa` (on the first) and `pb`:
+/// distance and normal from their difference; `None` where that is zero or not finite.
+pub fn apart(pa: Vec3, pb: Vec3) -> Option<PairContact> {
+    let gap = pb - pa;
+    let dist = gap.norm();
+    (dist > 0.0 && dist.is_finite()).then(|| PairContact {
+        p_a: pa,
+        p_b: pb,
+        n: gap / dist,
+        depth: -dist,
+        distance: dist,
+    })
 }
 
 /// Exact query between two triangles (tool triangle `a`, obstacle triangle `b`) with their unit
@@ -545,6 +563,26 @@ mod tests {
                 let after = triangle_pair(&a, &na, &moved, &nb);
                 prop_assert!(after.distance > 0.0, "{c:?} {after:?}");
                 prop_assert!(c.depth >= 0.0);
+            }
+        }
+
+        /// Below a limit, the bounded search finds the same closest points as the whole pair
+        /// where the triangles are apart, and nothing where they are no nearer than the limit.
+        #[test]
+        fn the_bounded_search_is_the_pair_below_its_limit(
+            a in arb_tri(),
+            b in arb_tri(),
+            limit in 0.0..3.0f64,
+        ) {
+            let na = triangle_normal(&a).unwrap();
+            let nb = triangle_normal(&b).unwrap();
+            let c = triangle_pair(&a, &na, &b, &nb);
+            prop_assume!(c.distance > 0.0);
+            let below = closest_points_below(&a, &na, &b, &nb, limit).and_then(|(p, q)| apart(p, q));
+            if c.distance < limit {
+                prop_assert_eq!(below, Some(c));
+            } else {
+                prop_assert!(below.is_none(), "{below:?} at {} against {limit}", c.distance);
             }
         }
 
