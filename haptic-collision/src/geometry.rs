@@ -336,30 +336,11 @@ pub fn closest_points_below(
     let (ma, mb) = (a.len(), b.len());
     let mut best_d2 = limit_m * limit_m;
     let mut closest = None;
-    for v in a {
-        // The plane distance is a lower bound on the distance to the polygon.
-        let h = nb.dot(&(v - b[0]));
-        if h * h >= best_d2 {
-            continue;
-        }
-        let c = closest_point_on_polygon(v, b, nb);
-        let d2 = (c - v).norm_squared();
-        if d2 < best_d2 {
-            best_d2 = d2;
-            closest = Some((*v, c));
-        }
+    if let Some((v, c)) = nearest_vertex(a, b, nb, &mut best_d2) {
+        closest = Some((v, c));
     }
-    for v in b {
-        let h = na.dot(&(v - a[0]));
-        if h * h >= best_d2 {
-            continue;
-        }
-        let c = closest_point_on_polygon(v, a, na);
-        let d2 = (c - v).norm_squared();
-        if d2 < best_d2 {
-            best_d2 = d2;
-            closest = Some((c, *v));
-        }
+    if let Some((v, c)) = nearest_vertex(b, a, na, &mut best_d2) {
+        closest = Some((c, v));
     }
     for i in 0..ma {
         let (a0, a1) = (&a[i], &a[(i + 1) % ma]);
@@ -381,6 +362,31 @@ pub fn closest_points_below(
         }
     }
     closest
+}
+
+/// The vertex of `from` nearest the polygon `onto` (unit normal `n`) and its closest point
+/// there, where nearer than `√best_d2`, which it then lowers; each vertex skipped where its
+/// plane distance, a lower bound, is already no nearer.
+fn nearest_vertex(
+    from: &[Vec3],
+    onto: &[Vec3],
+    n: &Vec3,
+    best_d2: &mut Real,
+) -> Option<(Vec3, Vec3)> {
+    let mut found = None;
+    for v in from {
+        let h = n.dot(&(v - onto[0]));
+        if h * h >= *best_d2 {
+            continue;
+        }
+        let c = closest_point_on_polygon(v, onto, n);
+        let d2 = (c - v).norm_squared();
+        if d2 < *best_d2 {
+            *best_d2 = d2;
+            found = Some((*v, c));
+        }
+    }
+    found
 }
 
 /// The pair result of polygons apart with the closest points `pa` (on the first) and `pb`:
