@@ -28,6 +28,16 @@ use crate::mesh::TriMesh;
 /// Marks "no right child" (a leaf).
 pub(crate) const LEAF: u32 = u32::MAX;
 
+/// Below this fraction of a node's radius, a deviation the build computes is roundoff and
+/// counts as none; within this fraction, two axes of a node's box are equally long
+/// (`split.rs`); within this fraction of a piece's area, the piece covers its surface
+/// exactly (`moments.rs`). The query tells exact pieces from approximate ones (a deviation of
+/// 0, a cover of 1: `refine::weight_unsure`), and a flat face's piece came out with a deviation
+/// of 0 or of 10⁻¹⁷ of its radius, and a cover of 1 or of 1 − 3 · 10⁻¹⁶, by how its coordinates
+/// rounded. A nanometre a metre is far above the build's roundoff and far below any deviation
+/// the walk weighs.
+pub(crate) const ROUNDOFF_REL: Real = 1e-9;
+
 /// One node of the hierarchy (mesh frame, metres).
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub(crate) struct Node {
@@ -164,6 +174,11 @@ impl Hierarchy {
                 nodes[index].deviation = deviation;
             }
             first = end;
+        }
+        for node in &mut nodes {
+            if node.deviation <= ROUNDOFF_REL * node.radius {
+                node.deviation = 0.0;
+            }
         }
         let mut piece: Vec<Vec3> = Vec::with_capacity(pieces.iter().map(|p| p.1).sum());
         for (node, (verts, len)) in nodes.iter_mut().zip(&pieces) {

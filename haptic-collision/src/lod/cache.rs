@@ -28,11 +28,13 @@ const MAGIC: &[u8; 10] = b"HAPTICLOD\0";
 pub const FORMAT_VERSION: u32 = 2;
 /// What the build does, in words: part of every key, so that a change to the build (a new
 /// bound, a new piece) makes old files another build's. Change it with the build.
-const BUILD: &str = "haptic-collision lod build 5: median split on centroids (a quad's two halves \
+const BUILD: &str = "haptic-collision lod build 6: median split on centroids (a quad's two halves \
                      at its centroid, together, quads.rs) or cut along the \
                      normals' spread (split.rs), planar convex pieces of at most \
                      MAX_PIECE_VERTICES, slab and deviation bounds (piece → surface regions \
-                     dropped once bounded, candidates' distances in their own planes)";
+                     dropped once bounded, candidates' distances in their own planes, the node's \
+                     children always among them; deviations within ROUNDOFF_REL of the radius \
+                     none; of equally long axes, the first)";
 
 /// A saved hierarchy could not be read.
 #[derive(Debug, thiserror::Error)]

@@ -135,9 +135,19 @@ pub(super) fn final_deviation(
         }
     }
     if cands.len() > MAX_CANDIDATES {
-        // The nearest ones (any subset keeps the bound rigorous, only looser), nearest first,
-        // ties in walk order.
-        let gap = |m: usize| (nodes[m].center - node.center).norm() - nodes[m].radius;
+        // The node's own children, whose pieces stand for all of its triangles, then the
+        // nearest others (any subset keeps the bound rigorous, only looser), nearest first,
+        // ties in walk order. By gap alone, a thin plate's flat node lost its children to the
+        // pieces of the face beneath it and of its neighbours, equally near, and its bound was
+        // a cell of the grid: deviations of 8 mm on a flat face.
+        let children = [index + 1, node.right as usize];
+        let gap = |m: usize| {
+            if children.contains(&m) {
+                Real::NEG_INFINITY
+            } else {
+                (nodes[m].center - node.center).norm() - nodes[m].radius
+            }
+        };
         gaps.clear();
         gaps.extend(cands.iter().enumerate().map(|(k, &m)| (gap(m), k, m)));
         let by_gap = |a: &(Real, usize, usize), b: &(Real, usize, usize)| {

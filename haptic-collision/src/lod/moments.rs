@@ -11,7 +11,7 @@ use nalgebra::{Matrix2, Matrix3x2, Vector2};
 
 use crate::geometry::plane_basis;
 
-use super::build::Node;
+use super::build::{Node, ROUNDOFF_REL};
 
 /// Per node: area (m²) and the heights' mean (m) and variance (m²) about its piece's plane.
 #[derive(Debug, Clone, Copy, Default, PartialEq)]
@@ -162,7 +162,7 @@ pub(crate) fn surface_moments(
             let s = n.piece_start as usize;
             if let Some(p) = piece.get(s..s + n.piece_len as usize) {
                 let piece_area = polygon_area(p);
-                if piece_area > area {
+                if piece_area > area * (1.0 + ROUNDOFF_REL) {
                     m.cover = area / piece_area;
                 }
             }

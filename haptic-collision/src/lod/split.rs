@@ -20,6 +20,7 @@
 
 use haptic_core::{Mat3, Real, Vec3};
 
+use super::build::ROUNDOFF_REL;
 use super::quads;
 
 /// A cut by orientation must leave at least `1 / MIN_SHARE` of the node's triangles on each
@@ -88,7 +89,13 @@ impl Triangles<'_> {
             lo = lo.inf(&self.positions[t as usize]);
             hi = hi.sup(&self.positions[t as usize]);
         }
-        let axis = (hi - lo).imax();
+        // The longest axis; of axes equally long within roundoff (a square plate), the first,
+        // rather than whichever rounded longer.
+        let extent = hi - lo;
+        let longest = extent.max();
+        let axis = (0..3)
+            .find(|&k| extent[k] >= longest * (1.0 - ROUNDOFF_REL))
+            .unwrap_or(0);
         let mid = tris.len() / 2;
         // Ordered by position, then by quad (its smaller index), then by index: a quad's two
         // halves are neighbours in the order.
