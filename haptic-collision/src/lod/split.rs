@@ -348,4 +348,39 @@ mod tests {
         let mut all = all(&owned);
         assert_eq!(tris.split(&mut all, &mut SplitScratch::default()), 16);
     }
+
+    /// A square patch has two longest axes; the cut by position takes the first (x) in any
+    /// units, rather than whichever one its coordinates rounded longer.
+    #[test]
+    fn a_square_patch_is_cut_across_x_in_any_units() {
+        for scale in [1.0, 1e-3, 0.1, 0.3, 10.0, 7.3, 1e3] {
+            let step = 0.01 * scale;
+            let mut vertices = Vec::new();
+            let mut faces = Vec::new();
+            for i in 0..5 {
+                for j in 0..5 {
+                    // Turned a little about z, so that x and y round differently.
+                    let (x, y) = (i as Real * step, j as Real * step);
+                    vertices.push(Vec3::new(x - 1e-3 * y, y + 1e-3 * x, 0.0));
+                }
+            }
+            for i in 0..4u32 {
+                for j in 0..4u32 {
+                    let v = |a: u32, b: u32| a * 5 + b;
+                    faces.push([v(i, j), v(i + 1, j), v(i + 1, j + 1)]);
+                    faces.push([v(i, j), v(i + 1, j + 1), v(i, j + 1)]);
+                }
+            }
+            let mesh = testmesh::mesh(vertices, faces);
+            let owned = TriangleData::of(&mesh);
+            let tris = owned.view();
+            let mut all = all(&owned);
+            let cut = tris.split(&mut all, &mut SplitScratch::default());
+            // Triangle `t` is in column `t / 8` (constant i): two columns on each side.
+            let mut left: Vec<u32> = all[..cut].iter().map(|t| t / 8).collect();
+            left.sort_unstable();
+            left.dedup();
+            assert_eq!(left, [0, 1], "scale {scale}");
+        }
+    }
 }
