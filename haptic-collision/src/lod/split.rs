@@ -325,14 +325,14 @@ mod tests {
         );
     }
 
-    /// A flat patch is cut by position (its normals do not spread), into halves.
-    #[test]
-    fn a_flat_patch_is_cut_by_position() {
+    /// A patch of 4 × 4 quads, its vertex `(i, j)` at `at(i, j)`; triangle `t` is in the column
+    /// `t / 8` (constant `i`).
+    fn patch(at: impl Fn(Real, Real) -> Vec3) -> crate::mesh::TriMesh {
         let mut vertices = Vec::new();
         let mut faces = Vec::new();
         for i in 0..5 {
             for j in 0..5 {
-                vertices.push(Vec3::new(i as Real * 0.01, j as Real * 0.01, 0.0));
+                vertices.push(at(i as Real, j as Real));
             }
         }
         for i in 0..4u32 {
@@ -342,7 +342,13 @@ mod tests {
                 faces.push([v(i, j), v(i + 1, j + 1), v(i, j + 1)]);
             }
         }
-        let mesh = testmesh::mesh(vertices, faces);
+        testmesh::mesh(vertices, faces)
+    }
+
+    /// A flat patch is cut by position (its normals do not spread), into halves.
+    #[test]
+    fn a_flat_patch_is_cut_by_position() {
+        let mesh = patch(|i, j| Vec3::new(i * 0.01, j * 0.01, 0.0));
         let owned = TriangleData::of(&mesh);
         let tris = owned.view();
         let mut all = all(&owned);
@@ -354,29 +360,16 @@ mod tests {
     #[test]
     fn a_square_patch_is_cut_across_x_in_any_units() {
         for scale in [1.0, 1e-3, 0.1, 0.3, 10.0, 7.3, 1e3] {
-            let step = 0.01 * scale;
-            let mut vertices = Vec::new();
-            let mut faces = Vec::new();
-            for i in 0..5 {
-                for j in 0..5 {
-                    // Turned a little about z, so that x and y round differently.
-                    let (x, y) = (i as Real * step, j as Real * step);
-                    vertices.push(Vec3::new(x - 1e-3 * y, y + 1e-3 * x, 0.0));
-                }
-            }
-            for i in 0..4u32 {
-                for j in 0..4u32 {
-                    let v = |a: u32, b: u32| a * 5 + b;
-                    faces.push([v(i, j), v(i + 1, j), v(i + 1, j + 1)]);
-                    faces.push([v(i, j), v(i + 1, j + 1), v(i, j + 1)]);
-                }
-            }
-            let mesh = testmesh::mesh(vertices, faces);
+            // Turned a little about z, so that x and y round differently.
+            let mesh = patch(|i, j| {
+                let (x, y) = (i * 0.01 * scale, j * 0.01 * scale);
+                Vec3::new(x - 1e-3 * y, y + 1e-3 * x, 0.0)
+            });
             let owned = TriangleData::of(&mesh);
             let tris = owned.view();
             let mut all = all(&owned);
             let cut = tris.split(&mut all, &mut SplitScratch::default());
-            // Triangle `t` is in column `t / 8` (constant i): two columns on each side.
+            // Two columns on each side.
             let mut left: Vec<u32> = all[..cut].iter().map(|t| t / 8).collect();
             left.sort_unstable();
             left.dedup();
