@@ -559,6 +559,12 @@ impl WrenchPipeline {
 
 pub(super) fn load_scene(args: &super::CollisionArgs, n_poses: usize) -> anyhow::Result<Scene> {
     let meshes = common::meshes_dir();
+    if args.delta_mm.is_some() && ["jaws", "spoon-cup"].contains(&args.scene.as_str()) {
+        bail!(
+            "--delta-mm is for FILE_A,FILE_B scenes; `{}` keeps the paper's δ",
+            args.scene
+        );
+    }
     match args.scene.as_str() {
         "jaws" => {
             let scale = args.scale.unwrap_or(1e-3);
@@ -609,7 +615,11 @@ pub(super) fn load_scene(args: &super::CollisionArgs, n_poses: usize) -> anyhow:
             let (obstacle, _) = TriMesh::load(b, &LoadOptions::with_scale(scale))
                 .with_context(|| format!("loading {b}"))?;
             let (lo, hi) = tool.bounding_box();
-            let delta = 0.01 * (hi - lo).norm();
+            let delta = match args.delta_mm {
+                None => 0.01 * (hi - lo).norm(),
+                Some(mm) if mm.is_finite() && mm > 0.0 => mm * 1e-3,
+                Some(mm) => bail!("--delta-mm must be a positive length, not {mm}"),
+            };
             let poses = approach_poses(
                 &tool,
                 &obstacle,
@@ -626,7 +636,12 @@ pub(super) fn load_scene(args: &super::CollisionArgs, n_poses: usize) -> anyhow:
                 delta_m: delta,
                 k_c: 2000.0,
                 description: format!(
-                    "{a} (tool) lowered along -z onto {b} until it touches, then moved around that pose; delta = 1 % of the tool's diagonal"
+                    "{a} (tool) lowered along -z onto {b} until it touches, then moved around that pose; delta = {}",
+                    if args.delta_mm.is_some() {
+                        "as given (--delta-mm)"
+                    } else {
+                        "1 % of the tool's diagonal"
+                    }
                 ),
             })
         }
@@ -738,3 +753,6 @@ pub(super) fn approach_poses(
         })
         .collect())
 }
+
+#[cfg(test)]
+mod tests;

@@ -45,6 +45,10 @@ pub struct CollisionArgs {
     /// Unit scale of meshes given by path (metres per file unit).
     #[arg(long)]
     pub scale: Option<f64>,
+    /// The penalty's reach `δ` (mm) for a `FILE_A,FILE_B` scene; by default 1 % of the tool's
+    /// diagonal.
+    #[arg(long, conflicts_with = "suite")]
+    pub delta_mm: Option<f64>,
     /// Every scene of the generalization suite (`suite.json`), instead of one scene.
     #[arg(long)]
     pub suite: bool,

@@ -94,6 +94,7 @@ pub(super) fn file_scene(name: &str, n: usize) -> anyhow::Result<Entry> {
     let args = super::super::CollisionArgs {
         scene: name.to_owned(),
         scale: None,
+        delta_mm: None,
         suite: false,
         only: None,
         stopping_rule: haptic_collision::StoppingRule::default(),
