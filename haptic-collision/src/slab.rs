@@ -90,6 +90,10 @@ pub(crate) struct RegionContact {
     /// `∫g` the surfaces give is kept in the area): what the pieces say of the force is then
     /// least sure.
     pub pieces_apart: bool,
+    /// The length of its boundary along the walls of `B`'s prism (m): where it ends because
+    /// `A` overhangs `B`, not because `A` ends or leaves the slab. Measured by
+    /// [`pair_region_beside`] when asked; 0 otherwise.
+    pub walls_m: Real,
 }
 
 impl RegionContact {
@@ -148,24 +152,27 @@ pub(crate) fn pair_region(
     delta_m: Real,
     offset: HeightOffset,
 ) -> PairRegion {
-    region::<false>(a, b, nb, delta_m, offset)
+    region::<false>(a, b, nb, delta_m, offset, false)
 }
 
 /// [`pair_region`], and where `a`'s shadow lies wholly beyond a wall of `b`'s prism, how far
 /// and over what length they face each other across it ([`PairRegion::beside`]): the band of
 /// the surfaces two facing coarse pieces stand for that may lie over each other there
-/// (`lod::refine`).
+/// (`lod::refine`). With `walls`, the region's length along the walls of `b`'s prism too
+/// ([`RegionContact::walls_m`]), where the surfaces' prisms lean from the pieces'.
 pub(crate) fn pair_region_beside(
     a: &[Vec3],
     b: &[Vec3],
     nb: &Vec3,
     delta_m: Real,
     offset: HeightOffset,
+    walls: bool,
 ) -> PairRegion {
-    region::<true>(a, b, nb, delta_m, offset)
+    region::<true>(a, b, nb, delta_m, offset, walls)
 }
 
-/// [`pair_region`], and with `BESIDE` [`pair_region_beside`].
+/// [`pair_region`], and with `BESIDE` [`pair_region_beside`] (measuring the region's length
+/// along the walls with `walls`).
 #[inline(always)]
 fn region<const BESIDE: bool>(
     a: &[Vec3],
@@ -173,6 +180,7 @@ fn region<const BESIDE: bool>(
     nb: &Vec3,
     delta_m: Real,
     offset: HeightOffset,
+    walls: bool,
 ) -> PairRegion {
     let (u, w) = plane_basis(nb);
     let (u, w) = (&u, &w);
@@ -240,12 +248,15 @@ fn region<const BESIDE: bool>(
     if clip(cur, next, slab_bottom) {
         std::mem::swap(&mut cur, &mut next);
     }
+    // The walls that cut it (bit `i` for the wall from corner `i`).
+    let mut cut = 0u32;
     for i in 0..m {
         if cur.1 == 0 {
             break;
         }
         if clip(cur, next, |p| inside(i, p)) {
             std::mem::swap(&mut cur, &mut next);
+            cut |= 1 << i;
         }
     }
     let poly: &Poly = cur;
@@ -285,11 +296,41 @@ fn region<const BESIDE: bool>(
     }
     out.region = Some(RegionContact {
         pieces_apart,
+        walls_m: if BESIDE && walls && cut != 0 {
+            length_on_walls(poly, &corners[..m], cut)
+        } else {
+            0.0
+        },
         area_m2,
         centroid: origin + u * c.x + w * c.y + nb * (c.z - mean),
         depth_m,
     });
     out
+}
+
+/// The length of the edges of the clipped polygon `poly` (in `B`'s plane coordinates) that lie
+/// on the walls of the prism over the polygon of `corners` (counter-clockwise) marked in `cut`
+/// (bit `i`: the wall from corner `i`): both their ends on the wall's line, within roundoff of
+/// its length. The clip put them there.
+fn length_on_walls(poly: &Poly, corners: &[[Real; 2]], cut: u32) -> Real {
+    let m = corners.len();
+    let k = poly.1;
+    let mut length_m = 0.0;
+    for j in 0..k {
+        let (p, q) = (&poly.0[j], &poly.0[(j + 1) % k]);
+        let on_wall = (0..m).filter(|i| cut & (1 << i) != 0).any(|i| {
+            let (p0, p1) = (corners[i], corners[(i + 1) % m]);
+            let e = [p1[0] - p0[0], p1[1] - p0[1]];
+            // The cross product is the distance from the line times the wall's length.
+            let off = |x: &[Real; 3]| (e[0] * (x[1] - p0[1]) - e[1] * (x[0] - p0[0])).abs();
+            let tolerance = 1e-9 * (e[0] * e[0] + e[1] * e[1]);
+            off(p) <= tolerance && off(q) <= tolerance
+        });
+        if on_wall {
+            length_m += (q[0] - p[0]).hypot(q[1] - p[1]);
+        }
+    }
+    length_m
 }
 
 /// How far the part of tool polygon `a` whose heights come within `reach_m` of obstacle

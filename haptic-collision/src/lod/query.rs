@@ -6,7 +6,8 @@ use haptic_core::{
 
 use super::build::{Hierarchy, Node, PieceBall};
 use super::refine::{
-    FACING_COS, Written, band_weight_m3, refine_regions, weight_error_m3, weight_unsure,
+    FACING_COS, Written, band_weight_m3, refine_regions, wall_weight_error_m3, weight_error_m3,
+    weight_unsure,
 };
 use super::{LodError, MAX_PIECE_VERTICES};
 use crate::geometry::PairContact;
@@ -518,8 +519,11 @@ pub(crate) fn walk_from_stack(
             // Facing coarse pieces under the budgeted rule measure where they lie beside each
             // other's prisms (below).
             let facing = walk.refine && !(leaf_a && leaf_b) && cos_ab <= -FACING_COS;
+            // The first walk measures where their region ends along the obstacle prism's walls,
+            // where those of the surfaces lean from them (`refine.rs`).
             let regions = if facing {
-                pair_region_beside(&buf[..len], pb, &b.normal, delta, offset)
+                let walls = pass == Pass::Record && mb.spread_tan > 0.0;
+                pair_region_beside(&buf[..len], pb, &b.normal, delta, offset, walls)
             } else {
                 pair_region(&buf[..len], pb, &b.normal, delta, offset)
             };
@@ -595,15 +599,21 @@ pub(crate) fn walk_from_stack(
                 let area_m2 = r.area_m2 * (ma.cover * mb.cover);
                 if pass == Pass::Record {
                     let coherence = ma.coherence.min(mb.coherence);
-                    written.push(Written::of(
-                        out.len(),
-                        (ia, ib),
-                        (area_m2 * gap_weight_m(pc.depth, delta), area_m2),
-                        (coherence, offset.half_width_m, ma.cover * mb.cover),
-                        &pc.n,
-                        r.pieces_beyond(delta) && coherence < walk.min_coherence,
-                        unsure,
-                    ));
+                    let g_m = gap_weight_m(pc.depth, delta);
+                    let height_m = pc.depth.abs() + offset.half_width_m;
+                    let walls_m3 = wall_weight_error_m3(r.walls_m, height_m, mb.spread_tan, g_m);
+                    written.push(
+                        Written::of(
+                            out.len(),
+                            (ia, ib),
+                            (area_m2 * g_m, area_m2),
+                            (coherence, offset.half_width_m, ma.cover * mb.cover),
+                            &pc.n,
+                            r.pieces_beyond(delta) && coherence < walk.min_coherence,
+                            unsure,
+                        )
+                        .with_wall_error(walls_m3 * (ma.cover * mb.cover)),
+                    );
                 }
                 frames.emit(&pc, fa, fb, area_m2, out)?;
                 nearest.written(pc.distance);

@@ -102,6 +102,7 @@ fn a_facing_piece_beyond_a_wall_says_how_far_and_how_long_it_faces_it() {
             &nb,
             DELTA,
             HeightOffset::NONE,
+            false,
         );
         assert!(r.region.is_none() && r.nearest_m == Real::INFINITY);
         r.beside
@@ -124,6 +125,7 @@ fn a_facing_piece_beyond_a_wall_says_how_far_and_how_long_it_faces_it() {
         &nb,
         DELTA,
         HeightOffset::NONE,
+        false,
     );
     assert!(over.region.is_some() && over.beside.is_none());
     let plain = pair_region(
@@ -134,6 +136,46 @@ fn a_facing_piece_beyond_a_wall_says_how_far_and_how_long_it_faces_it() {
         HeightOffset::NONE,
     );
     assert_eq!(plain.beside, None);
+}
+
+/// A facing tool square over a floor square in part: the region's boundary along the walls of
+/// the floor's prism is where the tool overhangs it, measured only when asked; over it wholly,
+/// none.
+#[test]
+fn a_region_measures_its_length_along_the_walls_it_ends_at() {
+    let square = |x0: Real, y0: Real, size: Real, z: Real| {
+        [
+            Vec3::new(x0, y0, z),
+            Vec3::new(x0 + size, y0, z),
+            Vec3::new(x0 + size, y0 + size, z),
+            Vec3::new(x0, y0 + size, z),
+        ]
+    };
+    let floor = square(0.0, 0.0, 0.01, 0.0);
+    let nb = Vec3::z();
+    let walls = |tool: &[Vec3], measure: bool| {
+        pair_region_beside(tool, &floor, &nb, DELTA, HeightOffset::NONE, measure)
+            .region
+            .unwrap()
+            .walls_m
+    };
+    // Over x 8–10 mm, y 6–10 mm: along the walls x = 10 mm (4 mm) and y = 10 mm (2 mm).
+    let over_a_corner = square(0.008, 0.006, 0.01, 0.1e-3);
+    assert!((walls(&over_a_corner, true) - 0.006).abs() < 1e-12);
+    assert_eq!(walls(&over_a_corner, false), 0.0);
+    // Across the floor in y, over x 8–10 mm: both walls y = 0 and y = 10 mm, and x = 10 mm.
+    let across = [
+        Vec3::new(0.008, -0.002, 0.1e-3),
+        Vec3::new(0.012, -0.002, 0.1e-3),
+        Vec3::new(0.012, 0.012, 0.1e-3),
+        Vec3::new(0.008, 0.012, 0.1e-3),
+    ];
+    assert!((walls(&across, true) - 0.014).abs() < 1e-12);
+    // Wholly over it: no wall.
+    assert_eq!(walls(&square(0.002, 0.002, 0.004, 0.1e-3), true), 0.0);
+    // `pair_region` does not measure.
+    let plain = pair_region(&over_a_corner, &floor, &nb, DELTA, HeightOffset::NONE);
+    assert_eq!(plain.region.unwrap().walls_m, 0.0);
 }
 
 /// A vertical tool square standing beside a floor square (edge-on), `x` beyond its edge
