@@ -321,7 +321,11 @@ fn error_of(directions: Real, weights_squared: Real) -> Real {
 /// How many of `written` must be refined, moved to its front: every one marked `always`, then
 /// the fewest of the others, largest `bound + weight_bound` first, that leave the rest's error
 /// ([`error_of`]) at most `budget`. Entries with neither bound (triangle pairs, flat pieces) are
-/// taken only when marked.
+/// taken only when marked. The ones taken are in no particular order.
+///
+/// The fewest largest are found by partitioning about pivots, as a selection does, keeping the
+/// part that holds the answer: linear time expected, where sorting them took `k log k` (a
+/// jaws query takes a thousand of two thousand entries, in up to eight rounds).
 pub(crate) fn take_largest(written: &mut [Written], budget: Real) -> usize {
     // The marked ones first (a partition, in place).
     let mut marked = 0;
@@ -345,31 +349,94 @@ pub(crate) fn take_largest(written: &mut [Written], budget: Real) -> usize {
         return marked;
     }
     let key = |w: &Written| w.bound + w.weight_bound;
-    let larger = |x: &Written, y: &Written| key(y).total_cmp(&key(x));
-    // The fewest largest that bring the rest within the budget: partition off the largest k (k
-    // doubling, each partition linear), then sort only those.
-    let mut k = rest.len().min(16);
-    loop {
-        if k < rest.len() {
-            rest.select_nth_unstable_by(k - 1, larger);
+    // Those with no bound are never taken: out of the search, at the end.
+    let mut hi = rest.len();
+    let mut i = 0;
+    while i < hi {
+        if key(&rest[i]) > 0.0 {
+            i += 1;
+        } else {
+            hi -= 1;
+            rest.swap(i, hi);
         }
-        if left_within(sums(&rest[..k])) || k == rest.len() {
-            break;
-        }
-        k = (2 * k).min(rest.len());
     }
-    rest[..k].sort_unstable_by(larger);
-    let (mut taken, mut out) = (0, (0.0, 0.0));
-    for w in &rest[..k] {
-        let bounds = key(w);
-        if left_within(out) || bounds.is_nan() || bounds <= 0.0 {
-            break;
+    // `rest[..lo]` are taken, their sums `out`; the answer lies in `rest[lo..hi]`, every one of
+    // which comes after those of `rest[..lo]` in `larger_first`.
+    let (mut lo, mut out) = (0, (0.0, 0.0));
+    while lo < hi {
+        let part = &mut rest[lo..hi];
+        let pivot = median_of_three(&part[0], &part[part.len() / 2], &part[part.len() - 1]);
+        // The ones before the pivot, then the pivot.
+        let before = partition_about(part, &pivot);
+        let with_before = add(out, sums(&part[..before]));
+        if left_within(with_before) {
+            hi = lo + before;
+            continue;
         }
-        out.0 += w.bound;
-        out.1 += w.weight_bound * w.weight_bound;
-        taken += 1;
+        let with_pivot = add(
+            with_before,
+            (pivot.bound, pivot.weight_bound * pivot.weight_bound),
+        );
+        if left_within(with_pivot) {
+            return marked + lo + before + 1;
+        }
+        lo += before + 1;
+        out = with_pivot;
     }
-    marked + taken
+    marked + lo
+}
+
+/// The order entries are taken in: the larger `bound + weight_bound` first, then the larger
+/// weight bound, then the smaller index (a total order, so that which of equal bounds are taken
+/// does not depend on where they stood).
+fn larger_first(x: &Written, y: &Written) -> std::cmp::Ordering {
+    let key = |w: &Written| w.bound + w.weight_bound;
+    key(y)
+        .total_cmp(&key(x))
+        .then(y.weight_bound.total_cmp(&x.weight_bound))
+        .then(x.index.cmp(&y.index))
+        .then(x.pair.cmp(&y.pair))
+}
+
+/// Two pairs of sums added.
+fn add(a: (Real, Real), b: (Real, Real)) -> (Real, Real) {
+    (a.0 + b.0, a.1 + b.1)
+}
+
+/// The middle of three entries in [`larger_first`] order.
+fn median_of_three(a: &Written, b: &Written, c: &Written) -> Written {
+    use std::cmp::Ordering::Greater;
+    let (a, b) = if larger_first(a, b) == Greater {
+        (b, a)
+    } else {
+        (a, b)
+    };
+    // `a` before `b`: the middle is `b` unless `c` comes before it.
+    if larger_first(b, c) != Greater {
+        *b
+    } else if larger_first(a, c) == Greater {
+        *a
+    } else {
+        *c
+    }
+}
+
+/// Reorders `part` (which holds `pivot`) into the entries before `pivot` in [`larger_first`]
+/// order, then `pivot`, then the rest; returns how many come before it.
+fn partition_about(part: &mut [Written], pivot: &Written) -> usize {
+    use std::cmp::Ordering::{Equal, Less};
+    let mut before = 0;
+    for i in 0..part.len() {
+        if larger_first(&part[i], pivot) == Less {
+            part.swap(before, i);
+            before += 1;
+        }
+    }
+    // The pivot itself (the only entry equal to it) next.
+    if let Some(at) = (before..part.len()).find(|&i| larger_first(&part[i], pivot) == Equal) {
+        part.swap(before, at);
+    }
+    before
 }
 
 /// The most rounds [`refine_regions`] takes regions out in; the last takes every one left
@@ -629,6 +696,68 @@ mod tests {
         assert!(error_of(b, e2) <= 2.8, "{b} {e2}");
     }
 
+    /// The fewest largest by a full sort, as `take_largest` once found them: the count taken.
+    fn taken_by_sorting(written: &[Written], budget: Real) -> usize {
+        let marked = written.iter().filter(|w| w.always).count();
+        let mut rest: Vec<&Written> = written.iter().filter(|w| !w.always).collect();
+        let total = rest.iter().fold((0.0, 0.0), |(b, e2), w| {
+            (b + w.bound, e2 + w.weight_bound * w.weight_bound)
+        });
+        let within = |(b, e2): (Real, Real)| error_of(total.0 - b, total.1 - e2) <= budget;
+        if within((0.0, 0.0)) {
+            return marked;
+        }
+        let key = |w: &Written| w.bound + w.weight_bound;
+        rest.sort_by(|x, y| larger_first(x, y));
+        let (mut taken, mut out) = (0, (0.0, 0.0));
+        for w in rest {
+            if within(out) || key(w) <= 0.0 {
+                break;
+            }
+            out = (out.0 + w.bound, out.1 + w.weight_bound * w.weight_bound);
+            taken += 1;
+        }
+        marked + taken
+    }
+
+    proptest::proptest! {
+        /// The selection takes as many as sorting them all would, the largest (ties aside), the
+        /// marked ones first, and leaves the rest within the budget where the bounds allow.
+        #[test]
+        fn the_selection_takes_what_a_full_sort_takes(
+            entries in proptest::collection::vec((0u32..6, 0u32..6, proptest::bool::weighted(0.05)), 0..300),
+            share in 0.0f64..1.2,
+        ) {
+            // Few distinct values, so that ties are many; a fifth with neither bound.
+            let mut w: Vec<Written> = entries
+                .iter()
+                .enumerate()
+                .map(|(i, &(b, e, always))| Written {
+                    index: i as u32,
+                    pair: (i as u32, 0),
+                    bound: 0.25 * Real::from(b),
+                    weight_bound: 0.5 * Real::from(e),
+                    force: Vec3::zeros(),
+                    always,
+                })
+                .collect();
+            let total = w.iter().fold((0.0, 0.0), |(b, e2), w| {
+                (b + w.bound, e2 + w.weight_bound * w.weight_bound)
+            });
+            let budget = share * error_of(total.0, total.1);
+            let expected = taken_by_sorting(&w, budget);
+            let k = take_largest(&mut w, budget);
+            proptest::prop_assert_eq!(k, expected);
+            let marked = w.iter().filter(|w| w.always).count();
+            proptest::prop_assert!(w[..marked].iter().all(|w| w.always));
+            let key = |w: &Written| w.bound + w.weight_bound;
+            let least_taken = w[marked..k].iter().map(key).fold(Real::INFINITY, Real::min);
+            let most_left = w[k..].iter().map(key).fold(0.0, Real::max);
+            proptest::prop_assert!(k == marked || least_taken >= most_left);
+            proptest::prop_assert!(w[marked..k].iter().all(|w| key(w) > 0.0));
+        }
+    }
+
     fn written(bounds: &[Real]) -> Vec<Written> {
         bounds
             .iter()
@@ -653,7 +782,8 @@ mod tests {
         let k = take_largest(&mut w, 1.0);
         // Total 5.9: taking 3.0 leaves 2.9, then 2.0 leaves 0.9 ≤ 1.0.
         assert_eq!(k, 2);
-        let taken: Vec<Real> = w[..k].iter().map(|w| w.bound).collect();
+        let mut taken: Vec<Real> = w[..k].iter().map(|w| w.bound).collect();
+        taken.sort_by(|a, b| b.total_cmp(a));
         assert_eq!(taken, [3.0, 2.0]);
         let rest: Real = w[k..].iter().map(|w| w.bound).sum();
         assert!(rest <= 1.0 + 1e-12);
