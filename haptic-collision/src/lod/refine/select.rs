@@ -1,0 +1,310 @@
+//! The budget's selection (`super`): which of the regions the first walk wrote are refined, the
+//! fewest of the largest bounds that leave the rest's error within the budget.
+
+use haptic_core::Real;
+
+use super::Written;
+
+/// The error a set of regions may make in its net force: their direction bounds added, their
+/// weights' in quadrature (`Σ bᵢ + √(Σ eᵢ²)`, from the sums `Σ bᵢ` and `Σ eᵢ²`). A direction
+/// bound is a bound, and the regions of one curved surface err the same way; a weight's is a
+/// spread's half-width, a statistic whose sign differs from region to region.
+fn error_of(directions: Real, weights_squared: Real) -> Real {
+    directions.max(0.0) + weights_squared.max(0.0).sqrt()
+}
+
+/// How many of `written` must be refined, moved to its front: every one marked `always`, then
+/// the fewest of the others, largest `bound + weight_bound` first, that leave the rest's error
+/// ([`error_of`]) at most `budget`. Entries with neither bound (triangle pairs, flat pieces) are
+/// taken only when marked. The ones taken are in no particular order.
+///
+/// The fewest largest are found by partitioning about pivots, as a selection does, keeping the
+/// part that holds the answer: linear time expected, where sorting them took `k log k` (a
+/// jaws query takes a thousand of two thousand entries, in up to eight rounds).
+pub(crate) fn take_largest(written: &mut [Written], budget: Real) -> usize {
+    // The marked ones first (a partition, in place).
+    let mut marked = 0;
+    for i in 0..written.len() {
+        if written[i].always {
+            written.swap(marked, i);
+            marked += 1;
+        }
+    }
+    let rest = &mut written[marked..];
+    let sums = |ws: &[Written]| {
+        ws.iter().fold((0.0, 0.0), |(b, e2), w| {
+            (b + w.bound, e2 + w.weight_bound * w.weight_bound)
+        })
+    };
+    let (total_b, total_e2) = sums(rest);
+    let left_within = |(b, e2): (Real, Real)| error_of(total_b - b, total_e2 - e2) <= budget;
+    // (A NaN, from bounds that are not finite, refines nothing more.)
+    let error = error_of(total_b, total_e2);
+    if error.is_nan() || error <= budget {
+        return marked;
+    }
+    let key = |w: &Written| w.bound + w.weight_bound;
+    // Those with no bound are never taken: out of the search, at the end.
+    let mut hi = rest.len();
+    let mut i = 0;
+    while i < hi {
+        if key(&rest[i]) > 0.0 {
+            i += 1;
+        } else {
+            hi -= 1;
+            rest.swap(i, hi);
+        }
+    }
+    // `rest[..lo]` are taken, their sums `out`; the answer lies in `rest[lo..hi]`, every one of
+    // which comes after those of `rest[..lo]` in `larger_first`.
+    let (mut lo, mut out) = (0, (0.0, 0.0));
+    while lo < hi {
+        let part = &mut rest[lo..hi];
+        let pivot = median_of_three(&part[0], &part[part.len() / 2], &part[part.len() - 1]);
+        // The ones before the pivot, then the pivot.
+        let before = partition_about(part, &pivot);
+        let with_before = add(out, sums(&part[..before]));
+        if left_within(with_before) {
+            hi = lo + before;
+            continue;
+        }
+        let with_pivot = add(
+            with_before,
+            (pivot.bound, pivot.weight_bound * pivot.weight_bound),
+        );
+        if left_within(with_pivot) {
+            return marked + lo + before + 1;
+        }
+        lo += before + 1;
+        out = with_pivot;
+    }
+    marked + lo
+}
+
+/// The order entries are taken in: the larger `bound + weight_bound` first, then the larger
+/// weight bound, then the smaller index (a total order, so that which of equal bounds are taken
+/// does not depend on where they stood).
+fn larger_first(x: &Written, y: &Written) -> std::cmp::Ordering {
+    let key = |w: &Written| w.bound + w.weight_bound;
+    key(y)
+        .total_cmp(&key(x))
+        .then(y.weight_bound.total_cmp(&x.weight_bound))
+        .then(x.index.cmp(&y.index))
+        .then(x.pair.cmp(&y.pair))
+}
+
+/// Two pairs of sums added.
+fn add(a: (Real, Real), b: (Real, Real)) -> (Real, Real) {
+    (a.0 + b.0, a.1 + b.1)
+}
+
+/// The middle of three entries in [`larger_first`] order.
+fn median_of_three(a: &Written, b: &Written, c: &Written) -> Written {
+    use std::cmp::Ordering::Greater;
+    let (a, b) = if larger_first(a, b) == Greater {
+        (b, a)
+    } else {
+        (a, b)
+    };
+    // `a` before `b`: the middle is `b` unless `c` comes before it.
+    if larger_first(b, c) != Greater {
+        *b
+    } else if larger_first(a, c) == Greater {
+        *a
+    } else {
+        *c
+    }
+}
+
+/// Reorders `part` (which holds `pivot`) into the entries before `pivot` in [`larger_first`]
+/// order, then `pivot`, then the rest; returns how many come before it.
+fn partition_about(part: &mut [Written], pivot: &Written) -> usize {
+    use std::cmp::Ordering::{Equal, Less};
+    let mut before = 0;
+    for i in 0..part.len() {
+        if larger_first(&part[i], pivot) == Less {
+            part.swap(before, i);
+            before += 1;
+        }
+    }
+    // The pivot itself (the only entry equal to it) next.
+    if let Some(at) = (before..part.len()).find(|&i| larger_first(&part[i], pivot) == Equal) {
+        part.swap(before, at);
+    }
+    before
+}
+
+/// Entries of the given direction bounds and no weight bound, indexed in order (for tests).
+#[cfg(test)]
+pub(super) fn written_with_bounds(bounds: &[Real]) -> Vec<Written> {
+    bounds
+        .iter()
+        .enumerate()
+        .map(|(i, &b)| Written {
+            index: i as u32,
+            pair: (i as u32, 0),
+            bound: b,
+            weight_bound: 0.0,
+            force: haptic_core::Vec3::zeros(),
+            always: false,
+        })
+        .collect()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use haptic_core::Vec3;
+
+    /// Weight errors add in quadrature, direction bounds linearly: four weight errors of 1
+    /// make 2, not 4; with a direction bound of 1 beside them, 3.
+    #[test]
+    fn weight_errors_add_in_quadrature_and_direction_bounds_linearly() {
+        let mut w = written(&[0.0; 4]);
+        for x in &mut w {
+            x.weight_bound = 1.0;
+        }
+        assert_eq!(take_largest(&mut w, 2.0), 0);
+        assert_eq!(take_largest(&mut w, 1.9), 1);
+        // Taking one leaves √3 ≤ 1.8.
+        let mut w = written(&[0.0, 0.0, 0.0, 0.0, 1.0]);
+        for x in &mut w[..4] {
+            x.weight_bound = 1.0;
+        }
+        assert_eq!(take_largest(&mut w, 3.0), 0);
+        // 2.8: one taken leaves 1 + √3 or 2, within it (every key is 1).
+        let k = take_largest(&mut w, 2.8);
+        assert_eq!(k, 1);
+        let (b, e2) = w[k..].iter().fold((0.0, 0.0), |(b, e2), x| {
+            (b + x.bound, e2 + x.weight_bound * x.weight_bound)
+        });
+        assert!(error_of(b, e2) <= 2.8, "{b} {e2}");
+    }
+
+    /// The fewest largest by a full sort, as `take_largest` once found them: the count taken.
+    fn taken_by_sorting(written: &[Written], budget: Real) -> usize {
+        let marked = written.iter().filter(|w| w.always).count();
+        let mut rest: Vec<&Written> = written.iter().filter(|w| !w.always).collect();
+        let total = rest.iter().fold((0.0, 0.0), |(b, e2), w| {
+            (b + w.bound, e2 + w.weight_bound * w.weight_bound)
+        });
+        let within = |(b, e2): (Real, Real)| error_of(total.0 - b, total.1 - e2) <= budget;
+        if within((0.0, 0.0)) {
+            return marked;
+        }
+        let key = |w: &Written| w.bound + w.weight_bound;
+        rest.sort_by(|x, y| larger_first(x, y));
+        let (mut taken, mut out) = (0, (0.0, 0.0));
+        for w in rest {
+            if within(out) || key(w) <= 0.0 {
+                break;
+            }
+            out = (out.0 + w.bound, out.1 + w.weight_bound * w.weight_bound);
+            taken += 1;
+        }
+        marked + taken
+    }
+
+    proptest::proptest! {
+        /// The selection takes as many as sorting them all would, the largest (ties aside), the
+        /// marked ones first, and leaves the rest within the budget where the bounds allow.
+        #[test]
+        fn the_selection_takes_what_a_full_sort_takes(
+            entries in proptest::collection::vec((0u32..6, 0u32..6, proptest::bool::weighted(0.05)), 0..300),
+            share in 0.0f64..1.2,
+        ) {
+            // Few distinct values, so that ties are many; a fifth with neither bound.
+            let mut w: Vec<Written> = entries
+                .iter()
+                .enumerate()
+                .map(|(i, &(b, e, always))| Written {
+                    index: i as u32,
+                    pair: (i as u32, 0),
+                    bound: 0.25 * Real::from(b),
+                    weight_bound: 0.5 * Real::from(e),
+                    force: Vec3::zeros(),
+                    always,
+                })
+                .collect();
+            let total = w.iter().fold((0.0, 0.0), |(b, e2), w| {
+                (b + w.bound, e2 + w.weight_bound * w.weight_bound)
+            });
+            let budget = share * error_of(total.0, total.1);
+            let expected = taken_by_sorting(&w, budget);
+            let k = take_largest(&mut w, budget);
+            proptest::prop_assert_eq!(k, expected);
+            let marked = w.iter().filter(|w| w.always).count();
+            proptest::prop_assert!(w[..marked].iter().all(|w| w.always));
+            let key = |w: &Written| w.bound + w.weight_bound;
+            let least_taken = w[marked..k].iter().map(key).fold(Real::INFINITY, Real::min);
+            let most_left = w[k..].iter().map(key).fold(0.0, Real::max);
+            proptest::prop_assert!(k == marked || least_taken >= most_left);
+            proptest::prop_assert!(w[marked..k].iter().all(|w| key(w) > 0.0));
+        }
+    }
+
+    fn written(bounds: &[Real]) -> Vec<Written> {
+        written_with_bounds(bounds)
+    }
+
+    #[test]
+    fn the_fewest_largest_bounds_that_bring_the_rest_within_budget_are_taken() {
+        // 40 small bounds and three large ones: the rest must come within 1.0.
+        let mut bounds = vec![0.01; 40];
+        bounds.extend([3.0, 0.5, 2.0]);
+        let mut w = written(&bounds);
+        let k = take_largest(&mut w, 1.0);
+        // Total 5.9: taking 3.0 leaves 2.9, then 2.0 leaves 0.9 ≤ 1.0.
+        assert_eq!(k, 2);
+        let mut taken: Vec<Real> = w[..k].iter().map(|w| w.bound).collect();
+        taken.sort_by(|a, b| b.total_cmp(a));
+        assert_eq!(taken, [3.0, 2.0]);
+        let rest: Real = w[k..].iter().map(|w| w.bound).sum();
+        assert!(rest <= 1.0 + 1e-12);
+    }
+
+    #[test]
+    fn marked_regions_are_taken_whatever_the_budget() {
+        let mut w = written(&[0.0, 0.2, 0.0, 5.0]);
+        w[2].always = true;
+        // Within budget without it: only the marked one.
+        let k = take_largest(&mut w, 10.0);
+        assert_eq!(k, 1);
+        assert_eq!(w[0].index, 2);
+        // Over budget: the marked one, then the largest.
+        let mut w = written(&[0.0, 0.2, 0.0, 5.0]);
+        w[0].always = true;
+        let k = take_largest(&mut w, 1.0);
+        assert_eq!(k, 2);
+        assert_eq!((w[0].index, w[1].index), (0, 3));
+    }
+
+    #[test]
+    fn nothing_is_taken_within_budget_and_zero_bounds_never() {
+        let mut w = written(&[0.2, 0.3]);
+        assert_eq!(take_largest(&mut w, 0.5), 0);
+        // A budget of zero takes every positive bound and no zero one.
+        let mut w = written(&[0.0, 0.4, 0.0, 0.1]);
+        assert_eq!(take_largest(&mut w, 0.0), 2);
+        assert!(w[..2].iter().all(|w| w.bound > 0.0));
+        // Many entries: the doubling partition finds the same answer as a full sort.
+        let bounds: Vec<Real> = (0..1000)
+            .map(|i| ((i * 7919) % 1000) as Real * 1e-3)
+            .collect();
+        let mut w = written(&bounds);
+        let total: Real = bounds.iter().sum();
+        let k = take_largest(&mut w, 0.5 * total);
+        let mut sorted = bounds.clone();
+        sorted.sort_by(|a, b| b.total_cmp(a));
+        let mut left = 0.5 * total;
+        let expected = sorted
+            .iter()
+            .take_while(|&&b| {
+                let take = left > 0.0;
+                left -= b;
+                take
+            })
+            .count();
+        assert_eq!(k, expected);
+    }
+}
