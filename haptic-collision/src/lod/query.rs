@@ -516,6 +516,9 @@ pub(crate) fn walk_from_stack(
             }
             stats.primitive_pairs_tested += 1;
             let (ma, mb, offset) = early.unwrap_or_else(|| offset(ia, ib));
+            // The share of the pieces their surfaces cover, and how far the surfaces lie from
+            // the pieces at most.
+            let (cover, deviations_m) = (ma.cover * mb.cover, a.deviation + b.deviation);
             // Facing coarse pieces under the budgeted rule measure where they lie beside each
             // other's prisms (below).
             let facing = walk.refine && !(leaf_a && leaf_b) && cos_ab <= -FACING_COS;
@@ -531,10 +534,8 @@ pub(crate) fn walk_from_stack(
             // for their surfaces put a region where those surfaces may have none, or none
             // where they may have one (`refine.rs`). Beside the obstacle piece's prism within
             // their deviations, such a pair is descended; pair by pair, so is its region.
-            let unsure = walk.refine
-                && !(leaf_a && leaf_b)
-                && weight_unsure(cos_ab, a.deviation + b.deviation, ma.cover * mb.cover);
-            let deviations_m = a.deviation + b.deviation;
+            let unsure =
+                walk.refine && !(leaf_a && leaf_b) && weight_unsure(cos_ab, deviations_m, cover);
             if unsure
                 && regions.region.is_none()
                 && beside_prism_m(&buf[..len], pb, &b.normal, delta + offset.reach_m())
@@ -567,7 +568,6 @@ pub(crate) fn walk_from_stack(
             // region taken out, so is one whose weight is less sure than its share of the
             // budget allows (`refine.rs`).
             let weight_loose = |r: &RegionContact| {
-                let cover = ma.cover * mb.cover;
                 let area_m2 = r.area_m2 * cover;
                 let w = area_m2 * gap_weight_m(r.depth_m, delta);
                 weight_error_m3(w, area_m2, offset.half_width_m, cover)
@@ -596,7 +596,7 @@ pub(crate) fn walk_from_stack(
                 } else {
                     (NO_FEATURE, NO_FEATURE)
                 };
-                let area_m2 = r.area_m2 * (ma.cover * mb.cover);
+                let area_m2 = r.area_m2 * cover;
                 if pass == Pass::Record {
                     let coherence = ma.coherence.min(mb.coherence);
                     let g_m = gap_weight_m(pc.depth, delta);
@@ -607,12 +607,12 @@ pub(crate) fn walk_from_stack(
                             out.len(),
                             (ia, ib),
                             (area_m2 * g_m, area_m2),
-                            (coherence, offset.half_width_m, ma.cover * mb.cover),
+                            (coherence, offset.half_width_m, cover),
                             &pc.n,
                             r.pieces_beyond(delta) && coherence < walk.min_coherence,
                             unsure,
                         )
-                        .with_wall_error(walls_m3 * (ma.cover * mb.cover)),
+                        .with_wall_error(walls_m3 * cover),
                     );
                 }
                 frames.emit(&pc, fa, fb, area_m2, out)?;

@@ -31,11 +31,6 @@ pub(crate) fn take_largest(written: &mut [Written], budget: Real) -> usize {
         }
     }
     let rest = &mut written[marked..];
-    let sums = |ws: &[Written]| {
-        ws.iter().fold((0.0, 0.0), |(b, e2), w| {
-            (b + w.bound, e2 + w.weight_bound * w.weight_bound)
-        })
-    };
     let (total_b, total_e2) = sums(rest);
     let left_within = |(b, e2): (Real, Real)| error_of(total_b - b, total_e2 - e2) <= budget;
     // (A NaN, from bounds that are not finite, refines nothing more.)
@@ -43,7 +38,6 @@ pub(crate) fn take_largest(written: &mut [Written], budget: Real) -> usize {
     if error.is_nan() || error <= budget {
         return marked;
     }
-    let key = |w: &Written| w.bound + w.weight_bound;
     // Those with no bound are never taken: out of the search, at the end.
     let mut hi = rest.len();
     let mut i = 0;
@@ -68,10 +62,7 @@ pub(crate) fn take_largest(written: &mut [Written], budget: Real) -> usize {
             hi = lo + before;
             continue;
         }
-        let with_pivot = add(
-            with_before,
-            (pivot.bound, pivot.weight_bound * pivot.weight_bound),
-        );
+        let with_pivot = add(with_before, sums(std::slice::from_ref(&pivot)));
         if left_within(with_pivot) {
             return marked + lo + before + 1;
         }
@@ -85,12 +76,23 @@ pub(crate) fn take_largest(written: &mut [Written], budget: Real) -> usize {
 /// weight bound, then the smaller index (a total order, so that which of equal bounds are taken
 /// does not depend on where they stood).
 fn larger_first(x: &Written, y: &Written) -> std::cmp::Ordering {
-    let key = |w: &Written| w.bound + w.weight_bound;
     key(y)
         .total_cmp(&key(x))
         .then(y.weight_bound.total_cmp(&x.weight_bound))
         .then(x.index.cmp(&y.index))
         .then(x.pair.cmp(&y.pair))
+}
+
+/// What an entry is taken by: its two bounds added.
+fn key(w: &Written) -> Real {
+    w.bound + w.weight_bound
+}
+
+/// The sums [`error_of`] reads of `ws`: their direction bounds, and their weight bounds squared.
+fn sums(ws: &[Written]) -> (Real, Real) {
+    ws.iter().fold((0.0, 0.0), |(b, e2), w| {
+        (b + w.bound, e2 + w.weight_bound * w.weight_bound)
+    })
 }
 
 /// Two pairs of sums added.
@@ -160,14 +162,14 @@ mod tests {
     /// make 2, not 4; with a direction bound of 1 beside them, 3.
     #[test]
     fn weight_errors_add_in_quadrature_and_direction_bounds_linearly() {
-        let mut w = written(&[0.0; 4]);
+        let mut w = written_with_bounds(&[0.0; 4]);
         for x in &mut w {
             x.weight_bound = 1.0;
         }
         assert_eq!(take_largest(&mut w, 2.0), 0);
         assert_eq!(take_largest(&mut w, 1.9), 1);
         // Taking one leaves √3 ≤ 1.8.
-        let mut w = written(&[0.0, 0.0, 0.0, 0.0, 1.0]);
+        let mut w = written_with_bounds(&[0.0, 0.0, 0.0, 0.0, 1.0]);
         for x in &mut w[..4] {
             x.weight_bound = 1.0;
         }
@@ -175,27 +177,22 @@ mod tests {
         // 2.8: one taken leaves 1 + √3 or 2, within it (every key is 1).
         let k = take_largest(&mut w, 2.8);
         assert_eq!(k, 1);
-        let (b, e2) = w[k..].iter().fold((0.0, 0.0), |(b, e2), x| {
-            (b + x.bound, e2 + x.weight_bound * x.weight_bound)
-        });
+        let (b, e2) = sums(&w[k..]);
         assert!(error_of(b, e2) <= 2.8, "{b} {e2}");
     }
 
     /// The fewest largest by a full sort, as `take_largest` once found them: the count taken.
     fn taken_by_sorting(written: &[Written], budget: Real) -> usize {
         let marked = written.iter().filter(|w| w.always).count();
-        let mut rest: Vec<&Written> = written.iter().filter(|w| !w.always).collect();
-        let total = rest.iter().fold((0.0, 0.0), |(b, e2), w| {
-            (b + w.bound, e2 + w.weight_bound * w.weight_bound)
-        });
+        let mut rest: Vec<Written> = written.iter().filter(|w| !w.always).copied().collect();
+        let total = sums(&rest);
         let within = |(b, e2): (Real, Real)| error_of(total.0 - b, total.1 - e2) <= budget;
         if within((0.0, 0.0)) {
             return marked;
         }
-        let key = |w: &Written| w.bound + w.weight_bound;
-        rest.sort_by(|x, y| larger_first(x, y));
+        rest.sort_by(larger_first);
         let (mut taken, mut out) = (0, (0.0, 0.0));
-        for w in rest {
+        for w in &rest {
             if within(out) || key(w) <= 0.0 {
                 break;
             }
@@ -226,16 +223,13 @@ mod tests {
                     always,
                 })
                 .collect();
-            let total = w.iter().fold((0.0, 0.0), |(b, e2), w| {
-                (b + w.bound, e2 + w.weight_bound * w.weight_bound)
-            });
+            let total = sums(&w);
             let budget = share * error_of(total.0, total.1);
             let expected = taken_by_sorting(&w, budget);
             let k = take_largest(&mut w, budget);
             proptest::prop_assert_eq!(k, expected);
             let marked = w.iter().filter(|w| w.always).count();
             proptest::prop_assert!(w[..marked].iter().all(|w| w.always));
-            let key = |w: &Written| w.bound + w.weight_bound;
             let least_taken = w[marked..k].iter().map(key).fold(Real::INFINITY, Real::min);
             let most_left = w[k..].iter().map(key).fold(0.0, Real::max);
             proptest::prop_assert!(k == marked || least_taken >= most_left);
@@ -243,16 +237,12 @@ mod tests {
         }
     }
 
-    fn written(bounds: &[Real]) -> Vec<Written> {
-        written_with_bounds(bounds)
-    }
-
     #[test]
     fn the_fewest_largest_bounds_that_bring_the_rest_within_budget_are_taken() {
         // 40 small bounds and three large ones: the rest must come within 1.0.
         let mut bounds = vec![0.01; 40];
         bounds.extend([3.0, 0.5, 2.0]);
-        let mut w = written(&bounds);
+        let mut w = written_with_bounds(&bounds);
         let k = take_largest(&mut w, 1.0);
         // Total 5.9: taking 3.0 leaves 2.9, then 2.0 leaves 0.9 ≤ 1.0.
         assert_eq!(k, 2);
@@ -265,14 +255,14 @@ mod tests {
 
     #[test]
     fn marked_regions_are_taken_whatever_the_budget() {
-        let mut w = written(&[0.0, 0.2, 0.0, 5.0]);
+        let mut w = written_with_bounds(&[0.0, 0.2, 0.0, 5.0]);
         w[2].always = true;
         // Within budget without it: only the marked one.
         let k = take_largest(&mut w, 10.0);
         assert_eq!(k, 1);
         assert_eq!(w[0].index, 2);
         // Over budget: the marked one, then the largest.
-        let mut w = written(&[0.0, 0.2, 0.0, 5.0]);
+        let mut w = written_with_bounds(&[0.0, 0.2, 0.0, 5.0]);
         w[0].always = true;
         let k = take_largest(&mut w, 1.0);
         assert_eq!(k, 2);
@@ -281,17 +271,17 @@ mod tests {
 
     #[test]
     fn nothing_is_taken_within_budget_and_zero_bounds_never() {
-        let mut w = written(&[0.2, 0.3]);
+        let mut w = written_with_bounds(&[0.2, 0.3]);
         assert_eq!(take_largest(&mut w, 0.5), 0);
         // A budget of zero takes every positive bound and no zero one.
-        let mut w = written(&[0.0, 0.4, 0.0, 0.1]);
+        let mut w = written_with_bounds(&[0.0, 0.4, 0.0, 0.1]);
         assert_eq!(take_largest(&mut w, 0.0), 2);
         assert!(w[..2].iter().all(|w| w.bound > 0.0));
         // Many entries: the doubling partition finds the same answer as a full sort.
         let bounds: Vec<Real> = (0..1000)
             .map(|i| ((i * 7919) % 1000) as Real * 1e-3)
             .collect();
-        let mut w = written(&bounds);
+        let mut w = written_with_bounds(&bounds);
         let total: Real = bounds.iter().sum();
         let k = take_largest(&mut w, 0.5 * total);
         let mut sorted = bounds.clone();
