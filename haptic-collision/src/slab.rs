@@ -14,6 +14,8 @@
 //! Because the prisms of neighbouring obstacle triangles only share walls, and a tool polygon's
 //! integrals add up over any partition of it, the sums over triangle pairs do not depend on how
 //! either flat surface is tessellated: the all-pairs reference converges as a mesh is refined.
+//! A tool polygon lying on a shared wall (within [`ON_WALL_REL`] of it) counts half in each of
+//! the two prisms, once in all, whatever roundoff says of its side.
 //! A separating-axis depth, which measures two crossing triangles' sizes rather than how far the
 //! tool has gone in, never enters; the exact closest approach between two polygons, which may lie
 //! on their edges outside every region, is found separately (`lod::query::closest_approaches`).
@@ -35,6 +37,14 @@ use crate::lod::{MAX_PIECE_VERTICES, SurfaceMoments};
 /// Most vertices a clipped polygon can have: the tool polygon's, one more per prism wall and per
 /// slab plane.
 const MAX_CLIPPED: usize = 2 * MAX_PIECE_VERTICES + 3;
+
+/// A point of the tool polygon nearer the plane of a wall of `B`'s prism than this many times
+/// the length of the wall's edge lies on the wall: far above roundoff (a picometre for a
+/// millimetre's edge), far below what a mesh can mean. A tool polygon on the wall between two
+/// prisms (a peg's end flush with a row of its hole's tessellation) lay inside both, or
+/// neither, or one, as roundoff had it, and the clip's cuts through it fell anywhere; on the
+/// wall, it counts half in each, once in all.
+const ON_WALL_REL: Real = 1e-9;
 
 /// A polygon in `B`'s frame: `[u, w, h]`, `h` the height above `B`'s plane.
 type Poly = ([[Real; 3]; MAX_CLIPPED], usize);
@@ -202,10 +212,27 @@ fn region<const BESIDE: bool>(
         let d = v - origin;
         *c = [u.dot(&d), w.dot(&d)];
     }
-    // Inside an edge: to its left (counter-clockwise polygon).
-    let inside = |i: usize, p: &[Real; 3]| {
+    // Its edges, `p1 − p0` from each corner `p0`, once.
+    let mut edges = [[0.0; 2]; MAX_PIECE_VERTICES];
+    for (i, e) in edges[..m].iter_mut().enumerate() {
         let (p0, p1) = (corners[i], corners[(i + 1) % m]);
-        (p1[0] - p0[0]) * (p[1] - p0[1]) - (p1[1] - p0[1]) * (p[0] - p0[0])
+        *e = [p1[0] - p0[0], p1[1] - p0[1]];
+    }
+    // Inside an edge: to its left (counter-clockwise polygon); on its wall within
+    // `ON_WALL_REL` of its length, exactly 0 (the cross product is the distance from the
+    // wall's plane times the edge's length).
+    let mut on_wall_tolerance = [0.0; MAX_PIECE_VERTICES];
+    for (t, e) in on_wall_tolerance[..m].iter_mut().zip(&edges) {
+        *t = ON_WALL_REL * (e[0] * e[0] + e[1] * e[1]);
+    }
+    let inside = |i: usize, p: &[Real; 3]| {
+        let (p0, e) = (corners[i], edges[i]);
+        let f = e[0] * (p[1] - p0[1]) - e[1] * (p[0] - p0[0]);
+        if f.abs() <= on_wall_tolerance[i] {
+            0.0
+        } else {
+            f
+        }
     };
     // Most pairs that reach here lie beside each other, not one over the other: the whole tool
     // polygon is outside one edge, and the clips below would end empty.
@@ -214,8 +241,7 @@ fn region<const BESIDE: bool>(
             return PairRegion::NONE;
         }
         // How far beyond that wall, and how long the two shadows face each other across it.
-        let (p0, p1) = (corners[i], corners[(i + 1) % m]);
-        let edge = [p1[0] - p0[0], p1[1] - p0[1]];
+        let edge = edges[i];
         let length = edge[0].hypot(edge[1]);
         let beyond = local[..n]
             .iter()
@@ -248,8 +274,9 @@ fn region<const BESIDE: bool>(
     if clip(cur, next, slab_bottom) {
         std::mem::swap(&mut cur, &mut next);
     }
-    // The walls that cut it (bit `i` for the wall from corner `i`).
+    // The walls that cut it (bit `i` for the wall from corner `i`), and whether it lies on one.
     let mut cut = 0u32;
+    let mut on_wall = false;
     for i in 0..m {
         if cur.1 == 0 {
             break;
@@ -257,6 +284,8 @@ fn region<const BESIDE: bool>(
         if clip(cur, next, |p| inside(i, p)) {
             std::mem::swap(&mut cur, &mut next);
             cut |= 1 << i;
+        } else {
+            on_wall |= cur.0[..cur.1].iter().all(|p| inside(i, p) == 0.0);
         }
     }
     let poly: &Poly = cur;
@@ -279,6 +308,10 @@ fn region<const BESIDE: bool>(
     let weight = Weight::new(delta_m, s);
     let mut sums = Sums::default();
     sums.add(poly, &weight);
+    if on_wall {
+        // The prism beside this one across that wall has it on its wall too: half each.
+        sums.scale(0.5);
+    }
     if !(sums.g > 0.0 && sums.g2 > 0.0 && sums.g.is_finite() && sums.g2.is_finite()) {
         return out;
     }
@@ -323,7 +356,7 @@ fn length_on_walls(poly: &Poly, corners: &[[Real; 2]], cut: u32) -> Real {
             let e = [p1[0] - p0[0], p1[1] - p0[1]];
             // The cross product is the distance from the line times the wall's length.
             let off = |x: &[Real; 3]| (e[0] * (x[1] - p0[1]) - e[1] * (x[0] - p0[0])).abs();
-            let tolerance = 1e-9 * (e[0] * e[0] + e[1] * e[1]);
+            let tolerance = ON_WALL_REL * (e[0] * e[0] + e[1] * e[1]);
             off(p) <= tolerance && off(q) <= tolerance
         });
         if on_wall {
@@ -503,6 +536,13 @@ fn fan(p: &Poly) -> impl Iterator<Item = ([Vec3; 3], Real)> + '_ {
 }
 
 impl Sums {
+    /// The sums of the weight `k w` in place of `w`.
+    fn scale(&mut self, k: Real) {
+        self.g *= k;
+        self.gx *= k;
+        self.g2 *= k;
+    }
+
     fn add(&mut self, p: &Poly, weight: &Weight) {
         if p.1 < 3 {
             return;

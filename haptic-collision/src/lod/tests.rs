@@ -1430,8 +1430,12 @@ fn turned_tube(r: Real, h: Real, segments: usize, rows: usize, turn: Real) -> Tr
 /// regions the budget takes out, the regions written pair by pair are convex pieces of a
 /// curved patch whose weights are off by up to three times where they lie. Held to their
 /// share of the budget (`refine.rs`), the force's error at 1 % and 2.5 % is within the suite's
-/// goals: a median of 0.03 and at most 0.075 of the all-pairs force (without that share: 0.07
-/// and 0.36, and 0.25–0.36 on the 32-sided peg at 2.5 %).
+/// goals: a median of 0.008 and at most 0.040 of the all-pairs force (without that share: 0.07
+/// and 0.36, and 0.25–0.36 on the 32-sided peg at 2.5 %). The peg's ends lie on walls of the
+/// 80-sided tube's prisms (its rows are a millimetre apart): without the rule that a polygon on
+/// a wall counts half in each prism beside it (`slab.rs`), the reference itself gave the ends'
+/// regions once, twice or not at all as roundoff had it, and the 32-sided peg's errors were
+/// 0.023–0.073, or 0.09–0.17 in another basis of the obstacle's plane.
 #[test]
 fn the_budgeted_rule_holds_a_peg_in_a_tube_on_any_tessellation() {
     let (r, clearance) = (0.004, 0.00005);
@@ -1449,7 +1453,7 @@ fn the_budgeted_rule_holds_a_peg_in_a_tube_on_any_tessellation() {
         errors.extend(budget_errors(&tool, obstacle, &poses));
     }
     let (median, worst) = median_and_worst(&errors);
-    assert!(median <= 0.05 && worst <= 0.10, "{errors:?}");
+    assert!(median <= 0.02 && worst <= 0.05, "{errors:?}");
 }
 
 /// A round peg (radius 4 mm, 6 mm long, its origin at its middle) centred in a tube 50 µm wider

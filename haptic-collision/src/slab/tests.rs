@@ -368,6 +368,46 @@ fn band_by_quadrature(p: &Poly, weight: &Weight) -> Sums {
 }
 
 proptest! {
+    /// A tool square standing edge-on on the diagonal of a floor square split in two triangles
+    /// lies on the wall their prisms share (a peg's end flush with a row of its hole's
+    /// tessellation): turned and moved anywhere, so that roundoff puts it inside both prisms,
+    /// or neither, or one, the two triangles' regions weigh what the whole square's does, once.
+    /// (Without the wall's rule: none, once or twice, as the turn had it.)
+    #[test]
+    fn a_polygon_on_a_shared_wall_counts_once(
+        axis in prop::array::uniform3(-1.0..1.0f64),
+        angle in 0.0..std::f64::consts::PI,
+        shift in prop::array::uniform3(-0.1..0.1f64),
+    ) {
+        prop_assume!(Vec3::from(axis).norm() > 1e-3);
+        let turn = nalgebra::Rotation3::from_axis_angle(
+            &nalgebra::Unit::new_normalize(Vec3::from(axis)),
+            angle,
+        );
+        let place = |x: Real, y: Real, z: Real| turn * Vec3::new(x, y, z) + Vec3::from(shift);
+        let side = 2e-3;
+        let (a, b, c, d) = (
+            place(0.0, 0.0, 0.0),
+            place(side, 0.0, 0.0),
+            place(side, side, 0.0),
+            place(0.0, side, 0.0),
+        );
+        let nb = turn * Vec3::z();
+        // The diagonal `a c` is the shared edge; the tool square stands on it, from 0.3 mm
+        // below the floor to 0.6 mm above (the penalty's slab is ±1 mm).
+        let along = |t: Real, z: Real| place(side * t, side * t, z);
+        let tool = [along(0.1, -3e-4), along(0.9, -3e-4), along(0.9, 6e-4), along(0.1, 6e-4)];
+        let weight = |poly: &[Vec3]| {
+            pair_region(&tool, poly, &nb, DELTA, HeightOffset::NONE)
+                .region
+                .map_or(0.0, |r| sums_of(&r).0)
+        };
+        let whole = weight(&[a, b, c, d]);
+        let halves = weight(&[a, b, c]) + weight(&[a, c, d]);
+        prop_assert!(whole > 0.0);
+        prop_assert!((halves - whole).abs() <= 1e-6 * whole, "{halves} against {whole}");
+    }
+
     /// The closed form of the spread weight against a direct average.
     #[test]
     fn spread_weight_matches_its_average(s in 1e-5..3e-3f64, h in -2e-3..5e-3f64) {
