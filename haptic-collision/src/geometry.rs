@@ -416,7 +416,9 @@ pub fn point_polygon_distance(p: &Vec3, poly: &[Vec3], n: &Vec3) -> Real {
     (closest_point_on_polygon(p, poly, n) - p).norm()
 }
 
-/// Two unit vectors `u, w` with `u × w = n`.
+/// Two unit vectors `u, w` with `u × w = n`, the same for the same `n` in every build: the
+/// hierarchy's normal fields are stored in this basis (`lod/moments.rs`), so it must not change
+/// without the hierarchy file's format version. See [`any_plane_basis`] for a faster one.
 pub(crate) fn plane_basis(n: &Vec3) -> (Vec3, Vec3) {
     let helper = if n.x.abs() < 0.6 {
         Vec3::x()
@@ -428,10 +430,50 @@ pub(crate) fn plane_basis(n: &Vec3) -> (Vec3, Vec3) {
     (u, w)
 }
 
+/// Two unit vectors `u, w` with `u × w = n` for a unit `n`, without a square root or a branch
+/// on the axes: Duff et al., "Building an orthonormal basis, revisited" (JCGT 6(1), 2017). For
+/// what does not depend on the basis (a polygon's clip and integrals in its plane, `slab.rs`);
+/// quantities stored in a basis use [`plane_basis`].
+#[inline]
+pub(crate) fn any_plane_basis(n: &Vec3) -> (Vec3, Vec3) {
+    let sign = 1.0_f64.copysign(n.z);
+    let a = -1.0 / (sign + n.z);
+    let b = n.x * n.y * a;
+    (
+        Vec3::new(1.0 + sign * n.x * n.x * a, sign * b, -sign * n.x),
+        Vec3::new(b, sign + n.y * n.y * a, -n.y),
+    )
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
     use proptest::prelude::*;
+
+    proptest! {
+        /// Both bases are orthonormal and right-handed about any unit normal, the poles and
+        /// the axes included.
+        #[test]
+        fn both_plane_bases_are_right_handed_and_orthonormal(
+            x in -1.0..1.0f64, y in -1.0..1.0f64, z in -1.0..1.0f64, axis in 0usize..7,
+        ) {
+            let n = match axis {
+                0 => Vec3::new(0.0, 0.0, 1.0),
+                1 => Vec3::new(0.0, 0.0, -1.0),
+                2 => Vec3::new(1.0, 0.0, 0.0),
+                3 => Vec3::new(0.0, -1.0, 0.0),
+                4 => Vec3::new(1e-12, 0.0, -1.0).normalize(),
+                _ => Vec3::new(x, y, z),
+            };
+            prop_assume!(n.norm() > 1e-3);
+            let n = n.normalize();
+            for (u, w) in [plane_basis(&n), any_plane_basis(&n)] {
+                prop_assert!((u.norm() - 1.0).abs() < 1e-12 && (w.norm() - 1.0).abs() < 1e-12);
+                prop_assert!(u.dot(&w).abs() < 1e-12 && u.dot(&n).abs() < 1e-12);
+                prop_assert!((u.cross(&w) - n).norm() < 1e-12);
+            }
+        }
+    }
 
     fn tri(a: [Real; 3], b: [Real; 3], c: [Real; 3]) -> [Vec3; 3] {
         [Vec3::from(a), Vec3::from(b), Vec3::from(c)]

@@ -31,7 +31,7 @@
 
 use haptic_core::{Real, Vec3, gap_weight_m};
 
-use crate::geometry::{PairContact, plane_basis};
+use crate::geometry::{PairContact, any_plane_basis};
 use crate::lod::{MAX_PIECE_VERTICES, SurfaceMoments};
 
 /// Most vertices a clipped polygon can have: the tool polygon's, one more per prism wall and per
@@ -192,7 +192,7 @@ fn region<const BESIDE: bool>(
     offset: HeightOffset,
     walls: bool,
 ) -> PairRegion {
-    let (u, w) = plane_basis(nb);
+    let (u, w) = any_plane_basis(nb);
     let (u, w) = (&u, &w);
     let origin = b[0];
     let mean = offset.mean_m;
@@ -200,11 +200,13 @@ fn region<const BESIDE: bool>(
         let d = v - origin;
         [u.dot(&d), w.dot(&d), nb.dot(&d) + mean]
     };
+    // The tool polygon in the plane's coordinates, where the clips below start from.
     let n = a.len().min(MAX_PIECE_VERTICES);
-    let mut local = [[0.0; 3]; MAX_PIECE_VERTICES];
-    for (l, v) in local.iter_mut().zip(&a[..n]) {
+    let mut poly: Poly = ([[0.0; 3]; MAX_CLIPPED], n);
+    for (l, v) in poly.0.iter_mut().zip(&a[..n]) {
         *l = to_local(v);
     }
+    let local = &poly.0[..n];
     // The obstacle polygon in the plane's coordinates, once.
     let m = b.len().min(MAX_PIECE_VERTICES);
     let mut corners = [[0.0; 2]; MAX_PIECE_VERTICES];
@@ -236,21 +238,21 @@ fn region<const BESIDE: bool>(
     };
     // Most pairs that reach here lie beside each other, not one over the other: the whole tool
     // polygon is outside one edge, and the clips below would end empty.
-    if let Some(i) = (0..m).find(|&i| local[..n].iter().all(|p| inside(i, p) < 0.0)) {
+    if let Some(i) = (0..m).find(|&i| local.iter().all(|p| inside(i, p) < 0.0)) {
         if !BESIDE {
             return PairRegion::NONE;
         }
         // How far beyond that wall, and how long the two shadows face each other across it.
         let edge = edges[i];
-        let length = edge[0].hypot(edge[1]);
-        let beyond = local[..n]
+        let length = (edge[0] * edge[0] + edge[1] * edge[1]).sqrt();
+        let beyond = local
             .iter()
             .map(|p| -inside(i, p))
             .fold(Real::INFINITY, Real::min);
         let along = |p: &[Real]| (edge[0] * p[0] + edge[1] * p[1]) / length;
         let span = |(lo, hi): (Real, Real), x: Real| (lo.min(x), hi.max(x));
         let empty = (Real::INFINITY, Real::NEG_INFINITY);
-        let (a_lo, a_hi) = local[..n].iter().map(|p| along(p)).fold(empty, span);
+        let (a_lo, a_hi) = local.iter().map(|p| along(p)).fold(empty, span);
         let (b_lo, b_hi) = corners[..m].iter().map(|p| along(p)).fold(empty, span);
         return PairRegion {
             beside: (length > 0.0)
@@ -258,8 +260,6 @@ fn region<const BESIDE: bool>(
             ..PairRegion::NONE
         };
     }
-    let mut poly: Poly = ([[0.0; 3]; MAX_CLIPPED], n);
-    poly.0[..n].copy_from_slice(&local[..n]);
     let s = offset.half_width_m.max(0.0);
     let mut tmp: Poly = ([[0.0; 3]; MAX_CLIPPED], 0);
     // The slab first, then the prism's walls. Ping-pong between the two buffers by reference
@@ -360,7 +360,8 @@ fn length_on_walls(poly: &Poly, corners: &[[Real; 2]], cut: u32) -> Real {
             off(p) <= tolerance && off(q) <= tolerance
         });
         if on_wall {
-            length_m += (q[0] - p[0]).hypot(q[1] - p[1]);
+            let (dx, dy) = (q[0] - p[0], q[1] - p[1]);
+            length_m += (dx * dx + dy * dy).sqrt();
         }
     }
     length_m

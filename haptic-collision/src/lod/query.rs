@@ -461,7 +461,12 @@ pub(crate) fn walk_from_stack(
     } else {
         walk.min_coherence
     };
+    // The tool piece last placed (`piece_of`, the buffer's length and its normal): the
+    // pairs of one tool node against the obstacle nodes it is descended against come one
+    // after the other.
     let mut buf = [Vec3::zeros(); MAX_PIECE_VERTICES];
+    let mut piece_of = u32::MAX;
+    let (mut len, mut na) = (0, Vec3::zeros());
     let nearest = &mut nearest[obstacle as usize];
     let mut placed = PlacedNode::NONE;
     while let Some((ia, ib)) = stack.pop() {
@@ -494,7 +499,10 @@ pub(crate) fn walk_from_stack(
             ) {
                 continue;
             }
-            let (len, na) = place_piece(tool, a, frames, &mut buf);
+            if piece_of != ia {
+                (len, na) = place_piece(tool, a, frames, &mut buf);
+                piece_of = ia;
+            }
             let cos_ab = na.dot(&b.normal);
             let pa = frames.point(&a.plane_point);
             let pb = obs.piece_of(b);
