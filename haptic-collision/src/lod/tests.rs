@@ -1790,3 +1790,69 @@ fn a_gridded_plates_flat_nodes_are_bounded_through_their_children() {
         }
     }
 }
+
+/// The all-pairs wrench is the scene's, not its frame's: moved and turned as a whole (twelve
+/// rigid motions), three scenes whose tool faces lie on walls of the obstacle's prisms give
+/// the same wrench, turned, to roundoff. A box resting flush with its base's sides, a box on
+/// a box's corner, and a peg whose layers' rings lie on its hole's rows. Without the rule for
+/// polygons on a wall (`slab.rs`), they changed by up to 3 %, 6 % and 19 %.
+#[test]
+fn the_all_pairs_wrench_holds_under_a_rigid_motion_of_the_scene() {
+    let delta = 0.0005;
+    let at = |x, y, z| Pose {
+        position: Vec3::new(x, y, z),
+        orientation: UnitQuaternion::identity(),
+    };
+    let small = super::testmesh::cuboid(Vec3::new(0.005, 0.005, 0.005));
+    let scenes = [
+        (
+            small.clone(),
+            super::testmesh::cuboid(Vec3::new(0.01, 0.01, 0.005)),
+            at(0.005, 0.005, 0.0099),
+        ),
+        (small.clone(), small, at(0.0, 0.0, 0.0099)),
+        (
+            super::testmesh::layered_cylinder(0.004, 0.006, 40, 6),
+            tube(0.00405, 0.010, 40, 10),
+            at(3e-5, 0.0, 0.002),
+        ),
+    ];
+    for (tool, obstacle, local) in scenes {
+        // The wrench in the scene's own frame, the scene moved by `(rot, shift)`.
+        let wrench = |rot: UnitQuaternion<Real>, shift: Vec3| {
+            let obstacles = [(
+                obstacle.clone(),
+                Pose {
+                    position: shift,
+                    orientation: rot,
+                },
+            )];
+            let mut backend = LodBackend::new(&tool, &obstacles)
+                .unwrap()
+                .with_max_contacts(None);
+            let tool_pose = Pose {
+                position: rot * local.position + shift,
+                orientation: rot * local.orientation,
+            };
+            let mut out = ContactSet::new();
+            let params = QueryParams::new(delta, 0.0).unwrap();
+            backend.query(&tool_pose, &params, &mut out).unwrap();
+            let radius = backend.tool_bounding_radius_m();
+            let w = integrated_penalty(&out, delta, &tool_pose.position, radius);
+            let (f, t) = (Vec3::new(w[0], w[1], w[2]), Vec3::new(w[3], w[4], w[5]));
+            [rot.inverse() * f, rot.inverse() * t]
+        };
+        let w0 = wrench(UnitQuaternion::identity(), Vec3::zeros());
+        let size = (w0[0].norm_squared() + w0[1].norm_squared()).sqrt();
+        assert!(size > 0.0);
+        for k in 1..=12 {
+            let s = k as Real;
+            let axis = Vec3::new((s * 1.3).sin(), (s * 0.7).cos(), (s * 2.1).sin());
+            let rot = UnitQuaternion::from_scaled_axis(axis * (0.3 + s * 0.2));
+            let shift = Vec3::new((s * 0.9).sin(), (s * 1.7).cos(), (s * 0.4).sin()) * 0.05;
+            let w = wrench(rot, shift);
+            let change = ((w[0] - w0[0]).norm_squared() + (w[1] - w0[1]).norm_squared()).sqrt();
+            assert!(change <= 1e-9 * size, "motion {k}: {w:?} against {w0:?}");
+        }
+    }
+}
