@@ -14,8 +14,11 @@
 //! Because the prisms of neighbouring obstacle triangles only share walls, and a tool polygon's
 //! integrals add up over any partition of it, the sums over triangle pairs do not depend on how
 //! either flat surface is tessellated: the all-pairs reference converges as a mesh is refined.
-//! A tool polygon lying on a shared wall (within [`ON_WALL_REL`] of it) counts half in each of
-//! the two prisms, once in all, whatever roundoff says of its side.
+//! A tool polygon lying on a shared wall (within `ROUNDOFF_REL` of the wall's edge length of
+//! its plane: a picometre for a millimetre's edge) counts half in each of the two prisms, once
+//! in all: on the wall between two prisms (a peg's end flush with a row of its hole's
+//! tessellation), roundoff put it inside both, or neither, or one, and the clip's cuts through
+//! it fell anywhere.
 //! A separating-axis depth, which measures two crossing triangles' sizes rather than how far the
 //! tool has gone in, never enters; the exact closest approach between two polygons, which may lie
 //! on their edges outside every region, is found separately (`lod::query::closest_approaches`).
@@ -32,19 +35,11 @@
 use haptic_core::{Real, Vec3, gap_weight_m};
 
 use crate::geometry::{PairContact, any_plane_basis};
-use crate::lod::{MAX_PIECE_VERTICES, SurfaceMoments};
+use crate::lod::{MAX_PIECE_VERTICES, ROUNDOFF_REL, SurfaceMoments};
 
 /// Most vertices a clipped polygon can have: the tool polygon's, one more per prism wall and per
 /// slab plane.
 const MAX_CLIPPED: usize = 2 * MAX_PIECE_VERTICES + 3;
-
-/// A point of the tool polygon nearer the plane of a wall of `B`'s prism than this many times
-/// the length of the wall's edge lies on the wall: far above roundoff (a picometre for a
-/// millimetre's edge), far below what a mesh can mean. A tool polygon on the wall between two
-/// prisms (a peg's end flush with a row of its hole's tessellation) lay inside both, or
-/// neither, or one, as roundoff had it, and the clip's cuts through it fell anywhere; on the
-/// wall, it counts half in each, once in all.
-const ON_WALL_REL: Real = 1e-9;
 
 /// A polygon in `B`'s frame: `[u, w, h]`, `h` the height above `B`'s plane.
 type Poly = ([[Real; 3]; MAX_CLIPPED], usize);
@@ -221,11 +216,11 @@ fn region<const BESIDE: bool>(
         *e = [p1[0] - p0[0], p1[1] - p0[1]];
     }
     // Inside an edge: to its left (counter-clockwise polygon); on its wall within
-    // `ON_WALL_REL` of its length, exactly 0 (the cross product is the distance from the
-    // wall's plane times the edge's length).
+    // `ROUNDOFF_REL` of its length, exactly 0 (the cross product is the distance from the
+    // wall's plane times the edge's length; module docs).
     let mut on_wall_tolerance = [0.0; MAX_PIECE_VERTICES];
     for (t, e) in on_wall_tolerance[..m].iter_mut().zip(&edges) {
-        *t = ON_WALL_REL * (e[0] * e[0] + e[1] * e[1]);
+        *t = ROUNDOFF_REL * (e[0] * e[0] + e[1] * e[1]);
     }
     let inside = |i: usize, p: &[Real; 3]| {
         let (p0, e) = (corners[i], edges[i]);
@@ -330,7 +325,7 @@ fn region<const BESIDE: bool>(
     out.region = Some(RegionContact {
         pieces_apart,
         walls_m: if BESIDE && walls && cut != 0 {
-            length_on_walls(poly, &corners[..m], cut)
+            length_on_walls(poly, cut, |i, p| inside(i, p) == 0.0)
         } else {
             0.0
         },
@@ -342,24 +337,18 @@ fn region<const BESIDE: bool>(
 }
 
 /// The length of the edges of the clipped polygon `poly` (in `B`'s plane coordinates) that lie
-/// on the walls of the prism over the polygon of `corners` (counter-clockwise) marked in `cut`
-/// (bit `i`: the wall from corner `i`): both their ends on the wall's line, within roundoff of
-/// its length. The clip put them there.
-fn length_on_walls(poly: &Poly, corners: &[[Real; 2]], cut: u32) -> Real {
-    let m = corners.len();
+/// on the walls of `B`'s prism marked in `cut` (bit `i`: the wall from corner `i`): both their
+/// ends on the wall, as `on_wall(i, point)` says (within roundoff of it). The clip put them
+/// there.
+fn length_on_walls(poly: &Poly, cut: u32, on_wall: impl Fn(usize, &[Real; 3]) -> bool) -> Real {
     let k = poly.1;
     let mut length_m = 0.0;
     for j in 0..k {
         let (p, q) = (&poly.0[j], &poly.0[(j + 1) % k]);
-        let on_wall = (0..m).filter(|i| cut & (1 << i) != 0).any(|i| {
-            let (p0, p1) = (corners[i], corners[(i + 1) % m]);
-            let e = [p1[0] - p0[0], p1[1] - p0[1]];
-            // The cross product is the distance from the line times the wall's length.
-            let off = |x: &[Real; 3]| (e[0] * (x[1] - p0[1]) - e[1] * (x[0] - p0[0])).abs();
-            let tolerance = ON_WALL_REL * (e[0] * e[0] + e[1] * e[1]);
-            off(p) <= tolerance && off(q) <= tolerance
-        });
-        if on_wall {
+        let along_a_wall = (0..MAX_PIECE_VERTICES)
+            .filter(|i| cut & (1 << i) != 0)
+            .any(|i| on_wall(i, p) && on_wall(i, q));
+        if along_a_wall {
             let (dx, dy) = (q[0] - p[0], q[1] - p[1]);
             length_m += (dx * dx + dy * dy).sqrt();
         }

@@ -35,7 +35,8 @@ pub(crate) const LEAF: u32 = u32::MAX;
 /// 0, a cover of 1: `refine::weight_unsure`), and a flat face's piece came out with a deviation
 /// of 0 or of 10⁻¹⁷ of its radius, and a cover of 1 or of 1 − 3 · 10⁻¹⁶, by how its coordinates
 /// rounded. A nanometre a metre is far above the build's roundoff and far below any deviation
-/// the walk weighs.
+/// the walk weighs. In the query, a tool point within this fraction of a wall's edge length of
+/// the wall's plane lies on the wall of the obstacle's prism (`slab.rs`).
 pub(crate) const ROUNDOFF_REL: Real = 1e-9;
 
 /// One node of the hierarchy (mesh frame, metres).

@@ -81,6 +81,7 @@ use rayon::prelude::*;
 use haptic_core::{CollisionBackend, ContactSet, CoreError, Pose, QueryParams, QueryStats, Real};
 
 pub use build::Hierarchy;
+pub(crate) use build::ROUNDOFF_REL;
 pub use cache::{CacheOutcome, FORMAT_VERSION, HierarchyFileError, hierarchy_key};
 use closest::closest_approaches;
 pub(crate) use moments::SurfaceMoments;
