@@ -266,7 +266,9 @@ pub(crate) struct Walk<'a> {
     /// The height over which the obstacle piece's normal spread counts in the stopping rule
     /// (m): a pair stops where `s_a + s_b + h tan φ_b ≤ ε`, `tan φ_b` the obstacle piece's
     /// [`super::SurfaceMoments::spread_tan`] ([`super::StoppingRule::spread_height_m`]: `δ`
-    /// under the budgeted rule, 0 under the paper's).
+    /// under the budgeted rule, 0 under the paper's). The budgeted rule also looks that far
+    /// beyond the obstacle piece's prism, `s_a + s_b + h tan φ_b`, for the surfaces of pieces
+    /// that do not face each other (`refine.rs`).
     pub spread_height_m: Real,
 }
 
@@ -541,13 +543,15 @@ pub(crate) fn walk_from_stack(
             // The budgeted rule: pieces that do not face each other and do not stand exactly
             // for their surfaces put a region where those surfaces may have none, or none
             // where they may have one (`refine.rs`). Beside the obstacle piece's prism within
-            // their deviations, such a pair is descended; pair by pair, so is its region.
+            // their deviations and the lean of its surface's own prisms at the penalty's reach
+            // (`h tan φ_b`, as the stopping rule counts it), such a pair is descended; pair by
+            // pair, so is its region.
             let unsure =
                 walk.refine && !(leaf_a && leaf_b) && weight_unsure(cos_ab, deviations_m, cover);
             if unsure
                 && regions.region.is_none()
                 && beside_prism_m(&buf[..len], pb, &b.normal, delta + offset.reach_m())
-                    < deviations_m
+                    < deviations_m + walk.spread_height_m * mb.spread_tan
             {
                 descend(ia, a, ib, b, stack);
                 continue;
