@@ -1745,11 +1745,11 @@ fn a_first_touch_holds_the_regions_left_against_the_force_left() {
 /// each other is descended where it lies beside within that lean and the two deviations, not
 /// only within the deviations (`refine.rs`). The Newell teaspoon on Spot (1/20, `δ` = 1 % of
 /// the spoon's diagonal: `cargo xtask bench collision --scene newell_teaspoon.stl,spot.stl
-/// --scale 1`, Spot written at 1/20 as `spot.stl`; poses 42, 58 and 170 of its path): at these three poses a
-/// flat piece of the spoon stood edge-on 0.3–1.7 mm beside a piece of the cow of normal
-/// coherence 0.80, and was dropped while 31 of their triangle pairs pushed 7 % of the force,
-/// sideways. LOD at 2.5 % was off the all-pairs force by 0.102, 0.102 and 0.076; now by
-/// 0.038, 0.036 and 0.025 (probe 39).
+/// --scale 1`, Spot written at 1/20 as `spot.stl`; poses 42, 58 and 170 of its path): at
+/// these three poses a flat piece of the spoon stood edge-on 0.3–1.7 mm beside a piece of the
+/// cow of normal coherence 0.80, and was dropped while 31 of their triangle pairs pushed 7 % of
+/// the force, sideways. LOD at 2.5 % was off the all-pairs force by 0.102, 0.102 and 0.076;
+/// now by 0.038, 0.036 and 0.025 (probe 39).
 #[test]
 fn an_edge_on_piece_beside_a_curved_piece_is_reached_by_its_surfaces_lean() {
     let tool = asset_tool("newell_teaspoon.stl", 1.0);
