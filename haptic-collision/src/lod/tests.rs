@@ -1658,11 +1658,8 @@ fn asset_tool(name: &str, scale: Real) -> TriMesh {
 #[test]
 fn a_first_touch_pushes_as_the_surfaces_do() {
     let tool = asset_tool("basemesh_fork.stl", 1.0);
-    let obstacles = vec![(asset("spot_keenan_5856.stl", 0.05), Pose::identity())];
-    let mut reference = LodBackend::new(&tool, &obstacles)
-        .unwrap()
-        .with_max_contacts(None);
-    let mut budget = LodBackend::new(&tool, &obstacles).unwrap();
+    let (mut reference, mut budget) =
+        all_pairs_and_budgeted(&tool, asset("spot_keenan_5856.stl", 0.05));
     let delta = 0.002;
     for (p, q) in [
         (
@@ -1753,11 +1750,8 @@ fn a_first_touch_holds_the_regions_left_against_the_force_left() {
 #[test]
 fn an_edge_on_piece_beside_a_curved_piece_is_reached_by_its_surfaces_lean() {
     let tool = asset_tool("newell_teaspoon.stl", 1.0);
-    let obstacles = vec![(asset("spot_keenan_5856.stl", 0.05), Pose::identity())];
-    let mut reference = LodBackend::new(&tool, &obstacles)
-        .unwrap()
-        .with_max_contacts(None);
-    let mut budget = LodBackend::new(&tool, &obstacles).unwrap();
+    let (mut reference, mut budget) =
+        all_pairs_and_budgeted(&tool, asset("spot_keenan_5856.stl", 0.05));
     let delta = 2.062_386_224_527_777_8e-3;
     let w = 9.999_968_750_016_276e-1;
     for (p, q) in [
