@@ -35,7 +35,7 @@
 use haptic_core::{Real, Vec3, gap_weight_m};
 
 use crate::geometry::{PairContact, any_plane_basis};
-use crate::lod::{MAX_PIECE_VERTICES, ROUNDOFF_REL, SurfaceMoments};
+use crate::lod::{MAX_PIECE_VERTICES, Overhang, ROUNDOFF_REL, SurfaceMoments};
 
 /// Most vertices a clipped polygon can have: the tool polygon's, one more per prism wall and per
 /// slab plane.
@@ -99,6 +99,10 @@ pub(crate) struct RegionContact {
     /// `A` overhangs `B`, not because `A` ends or leaves the slab. Measured by
     /// [`pair_region_beside`] when asked; 0 otherwise.
     pub walls_m: Real,
+    /// A bound on the weight (`∫g`, m³) of the part of it that may lie where `B` overhangs its
+    /// surface: over the bands along `B`'s edges that [`pair_region_beside`] was given
+    /// (`lod/overhang.rs`), at most its whole weight; 0 where it reaches none.
+    pub overhang_m3: Real,
 }
 
 impl RegionContact {
@@ -157,14 +161,17 @@ pub(crate) fn pair_region(
     delta_m: Real,
     offset: HeightOffset,
 ) -> PairRegion {
-    region::<false>(a, b, nb, delta_m, offset, false)
+    region::<false>(a, b, nb, delta_m, offset, false, (&[], &[]))
 }
 
 /// [`pair_region`], and where `a`'s shadow lies wholly beyond a wall of `b`'s prism, how far
 /// and over what length they face each other across it ([`PairRegion::beside`]): the band of
 /// the surfaces two facing coarse pieces stand for that may lie over each other there
 /// (`lod::refine`). With `walls`, the region's length along the walls of `b`'s prism too
-/// ([`RegionContact::walls_m`]), where the surfaces' prisms lean from the pieces'.
+/// ([`RegionContact::walls_m`]), where the surfaces' prisms lean from the pieces'. `overhang`
+/// gives, by edge of `a` and of `b` (from each corner), where each overhangs its surface
+/// (`lod/overhang.rs`; empty for none): the region's weight over those bands is bounded in
+/// [`RegionContact::overhang_m3`].
 pub(crate) fn pair_region_beside(
     a: &[Vec3],
     b: &[Vec3],
@@ -172,12 +179,13 @@ pub(crate) fn pair_region_beside(
     delta_m: Real,
     offset: HeightOffset,
     walls: bool,
+    overhang: (&[Overhang], &[Overhang]),
 ) -> PairRegion {
-    region::<true>(a, b, nb, delta_m, offset, walls)
+    region::<true>(a, b, nb, delta_m, offset, walls, overhang)
 }
 
 /// [`pair_region`], and with `BESIDE` [`pair_region_beside`] (measuring the region's length
-/// along the walls with `walls`).
+/// along the walls with `walls`, and its weight over the overhang bands of `a` and `b`).
 #[inline(always)]
 fn region<const BESIDE: bool>(
     a: &[Vec3],
@@ -186,6 +194,7 @@ fn region<const BESIDE: bool>(
     delta_m: Real,
     offset: HeightOffset,
     walls: bool,
+    (tool_overhang, overhang): (&[Overhang], &[Overhang]),
 ) -> PairRegion {
     let (u, w) = any_plane_basis(nb);
     let (u, w) = (&u, &w);
@@ -310,6 +319,82 @@ fn region<const BESIDE: bool>(
     if !(sums.g > 0.0 && sums.g2 > 0.0 && sums.g.is_finite() && sums.g2.is_finite()) {
         return out;
     }
+    // Over the bands along the edges of `b` and of `a` where they may overhang their surfaces
+    // (`lod/overhang.rs`): for each band the region reaches, its extent along the edge by how
+    // far into the band it reaches, at most the band's uncovered area, at the largest weight per
+    // area the region has (at its lowest point).
+    let mut overhang_m2: Real = 0.0;
+    if BESIDE && !(overhang.is_empty() && tool_overhang.is_empty()) {
+        let vertices = &poly.0[..poly.1];
+        for (i, o) in overhang.iter().enumerate().take(m) {
+            if !(o.width_m > 0.0 && o.area_m2 > 0.0) {
+                continue;
+            }
+            let e = edges[i];
+            let length = (e[0] * e[0] + e[1] * e[1]).sqrt();
+            if !(o.width_m.is_finite() && length > 0.0) {
+                overhang_m2 = Real::INFINITY;
+                break;
+            }
+            let into_m = vertices
+                .iter()
+                .map(|p| inside(i, p))
+                .fold(Real::INFINITY, Real::min)
+                / length;
+            if into_m >= o.width_m {
+                continue;
+            }
+            let along = |p: &[Real; 3]| (e[0] * p[0] + e[1] * p[1]) / length;
+            let (lo_m, hi_m) = vertices
+                .iter()
+                .fold((Real::INFINITY, Real::NEG_INFINITY), |(l, h), p| {
+                    (l.min(along(p)), h.max(along(p)))
+                });
+            overhang_m2 += ((o.width_m - into_m.max(0.0)) * (hi_m - lo_m).max(0.0)).min(o.area_m2);
+        }
+        // The tool's edges, in its own plane (the region lies in it): the distance from the
+        // edge's line, and the extent along it.
+        for (j, o) in tool_overhang.iter().enumerate().take(n) {
+            if !(o.width_m > 0.0 && o.area_m2 > 0.0) || overhang_m2.is_infinite() {
+                continue;
+            }
+            let (q0, q1) = (to_local(&a[j]), to_local(&a[(j + 1) % n]));
+            let e = [q1[0] - q0[0], q1[1] - q0[1], q1[2] - q0[2]];
+            let length = (e[0] * e[0] + e[1] * e[1] + e[2] * e[2]).sqrt();
+            if !(o.width_m.is_finite() && length > 0.0) {
+                overhang_m2 = Real::INFINITY;
+                break;
+            }
+            let from_edge = |p: &[Real; 3]| {
+                let d = [p[0] - q0[0], p[1] - q0[1], p[2] - q0[2]];
+                let c = [
+                    d[1] * e[2] - d[2] * e[1],
+                    d[2] * e[0] - d[0] * e[2],
+                    d[0] * e[1] - d[1] * e[0],
+                ];
+                (c[0] * c[0] + c[1] * c[1] + c[2] * c[2]).sqrt() / length
+            };
+            let into_m = vertices
+                .iter()
+                .map(from_edge)
+                .fold(Real::INFINITY, Real::min);
+            if into_m >= o.width_m {
+                continue;
+            }
+            let along = |p: &[Real; 3]| (e[0] * p[0] + e[1] * p[1] + e[2] * p[2]) / length;
+            let (lo_m, hi_m) = vertices
+                .iter()
+                .fold((Real::INFINITY, Real::NEG_INFINITY), |(l, h), p| {
+                    (l.min(along(p)), h.max(along(p)))
+                });
+            overhang_m2 += ((o.width_m - into_m) * (hi_m - lo_m).max(0.0)).min(o.area_m2);
+        }
+    }
+    let overhang_m3 = if overhang_m2 > 0.0 && delta_m + s - lo > 0.0 {
+        (overhang_m2 * (delta_m + s - lo)).min(sums.g)
+    } else {
+        0.0
+    };
     let c = sums.gx / sums.g;
     let mut depth_m = sums.g2 / sums.g - delta_m;
     let mut area_m2 = sums.g * sums.g / sums.g2;
@@ -329,6 +414,7 @@ fn region<const BESIDE: bool>(
         } else {
             0.0
         },
+        overhang_m3,
         area_m2,
         centroid: origin + u * c.x + w * c.y + nb * (c.z - mean),
         depth_m,

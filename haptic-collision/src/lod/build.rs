@@ -20,6 +20,7 @@ use rayon::prelude::*;
 use super::MAX_PIECE_VERTICES;
 use super::deviation::{DeviationScratch, final_deviation};
 use super::moments::{NormalField, SurfaceMoments, surface_moments};
+use super::overhang::{Across, NodeSurface, Overhang, OverhangScratch, overhang_widths};
 use super::split::TriangleData;
 use super::topology::{PARALLEL_TOPOLOGY_MIN, Tree};
 use crate::geometry::{closest_point_on_polygon_2d, plane_basis, triangle_normal};
@@ -80,6 +81,9 @@ impl Node {
 pub struct Hierarchy {
     pub(crate) nodes: Vec<Node>,
     pub(crate) piece: Vec<Vec3>,
+    /// By piece vertex: where the piece overhangs its surface along its edge from that vertex
+    /// (`overhang.rs`; none for a leaf's triangle, infinite where not measured).
+    pub(crate) overhang: Vec<Overhang>,
     /// Area and height moments of the surface below each node, by node index (derived from
     /// the leaves' triangles, so not saved with the hierarchy).
     pub(crate) moments: Vec<SurfaceMoments>,
@@ -102,6 +106,8 @@ struct Scratch {
     hull: Vec<[Real; 2]>,
     /// By mesh vertex: the last node whose corners took it (`u32::MAX` for none yet).
     taken_by: Vec<u32>,
+    /// The overhang's outline edges.
+    overhang: OverhangScratch,
 }
 
 impl Hierarchy {
@@ -118,10 +124,18 @@ impl Hierarchy {
             perm,
             height,
         } = Tree::build(&data.view(), PARALLEL_TOPOLOGY_MIN);
-        // Pass 1 (any order, in parallel): bounds, plane, slab, piece and the surface → piece
-        // deviation.
+        // Where each triangle is in `perm` (a node's triangles are a range of it), and the
+        // triangles across each one's edges: a node's surface's outline (`overhang.rs`).
+        let mut rank = vec![0u32; n];
+        for (i, &t) in perm.iter().enumerate() {
+            rank[t as usize] = i as u32;
+        }
+        let across = Across::of(mesh);
+        // Pass 1 (any order, in parallel): bounds, plane, slab, piece, the surface → piece
+        // deviation and where the piece overhangs its surface.
         type Piece = ([Vec3; MAX_PIECE_VERTICES], usize);
-        let pass1: Vec<(Node, Piece)> = (0..nodes.len())
+        type Widths = ([Real; MAX_PIECE_VERTICES], [Real; MAX_PIECE_VERTICES]);
+        let pass1: Vec<((Node, Piece), Widths)> = (0..nodes.len())
             .into_par_iter()
             .map_init(
                 || (Scratch::default(), Vec::with_capacity(MAX_PIECE_VERTICES)),
@@ -130,6 +144,7 @@ impl Hierarchy {
                     let node_tris = &perm[lo as usize..hi as usize];
                     local.clear();
                     let mut node = nodes[index];
+                    let mut widths = ([0.0; MAX_PIECE_VERTICES], [0.0; MAX_PIECE_VERTICES]);
                     fill_bounds(&mut node, node_tris, tris);
                     if node.is_leaf() {
                         let t = &tris[node.triangle as usize];
@@ -141,13 +156,38 @@ impl Hierarchy {
                     } else {
                         let stamp = index as u32;
                         fill_piece(&mut node, node_tris, tris, mesh, stamp, scratch, local);
+                        // Measured on planar pieces only (`overhang.rs`).
+                        widths = (
+                            [Real::INFINITY; MAX_PIECE_VERTICES],
+                            [Real::INFINITY; MAX_PIECE_VERTICES],
+                        );
+                        if local.len() >= 3 && planar(node_tris, tris) {
+                            let contains = |t: u32| (lo..hi).contains(&rank[t as usize]);
+                            let surface = NodeSurface {
+                                triangles: node_tris,
+                                contains: &contains,
+                                basis: plane_basis(&node.normal),
+                                origin: node.center,
+                            };
+                            let hull = &scratch.hull;
+                            overhang_widths(
+                                hull,
+                                &surface,
+                                tris,
+                                &across,
+                                &mut scratch.overhang,
+                                &mut widths.0,
+                                &mut widths.1,
+                            );
+                        }
                     }
                     let mut verts = [Vec3::zeros(); MAX_PIECE_VERTICES];
                     verts[..local.len()].copy_from_slice(local);
-                    (node, (verts, local.len()))
+                    ((node, (verts, local.len())), widths)
                 },
             )
             .collect();
+        let (pass1, widths): (Vec<(Node, Piece)>, Vec<Widths>) = pass1.into_iter().unzip();
         let (mut nodes, pieces): (Vec<Node>, Vec<Piece>) = pass1.into_iter().unzip();
         // Pass 2, smallest subtrees first: the piece → surface side of the deviation, bounded
         // through the pieces of smaller nearby nodes (whose deviations are then final). Nodes of
@@ -181,11 +221,17 @@ impl Hierarchy {
                 node.deviation = 0.0;
             }
         }
-        let mut piece: Vec<Vec3> = Vec::with_capacity(pieces.iter().map(|p| p.1).sum());
-        for (node, (verts, len)) in nodes.iter_mut().zip(&pieces) {
+        let vertex_count = pieces.iter().map(|p| p.1).sum();
+        let mut piece: Vec<Vec3> = Vec::with_capacity(vertex_count);
+        let mut overhang: Vec<Overhang> = Vec::with_capacity(vertex_count);
+        for ((node, (verts, len)), widths) in nodes.iter_mut().zip(&pieces).zip(&widths) {
             node.piece_start = piece.len() as u32;
             node.piece_len = *len as u32;
             piece.extend_from_slice(&verts[..*len]);
+            overhang.extend((0..*len).map(|k| Overhang {
+                width_m: widths.0[k],
+                area_m2: widths.1[k],
+            }));
         }
         let radius_about_origin_m = mesh
             .vertices()
@@ -197,6 +243,7 @@ impl Hierarchy {
         Self {
             nodes,
             piece,
+            overhang,
             moments,
             normal_fields,
             piece_balls,
@@ -222,6 +269,7 @@ impl Hierarchy {
     pub(crate) fn from_parts(
         nodes: Vec<Node>,
         piece: Vec<Vec3>,
+        overhang: Vec<Overhang>,
         radius_about_origin_m: Real,
         triangle_count: usize,
         height: usize,
@@ -232,6 +280,7 @@ impl Hierarchy {
         Self {
             nodes,
             piece,
+            overhang,
             moments,
             normal_fields,
             piece_balls,
@@ -261,6 +310,7 @@ impl Hierarchy {
     pub fn memory_bytes(&self) -> usize {
         self.nodes.capacity() * std::mem::size_of::<Node>()
             + self.piece.capacity() * std::mem::size_of::<Vec3>()
+            + self.overhang.capacity() * std::mem::size_of::<Overhang>()
             + self.moments.capacity() * std::mem::size_of::<SurfaceMoments>()
             + self.normal_fields.capacity() * std::mem::size_of::<NormalField>()
             + self.piece_balls.capacity() * std::mem::size_of::<PieceBall>()
@@ -287,6 +337,17 @@ impl Hierarchy {
     #[inline]
     pub(crate) fn piece_of(&self, node: &Node) -> &[Vec3] {
         &self.piece[node.piece_start as usize..(node.piece_start + node.piece_len) as usize]
+    }
+
+    /// By edge of the piece of `node` (from each vertex), where it overhangs its surface
+    /// (`overhang.rs`); empty for a piece that is not planar (its surface's normals spread, as
+    /// its `moments` say: not measured).
+    #[inline]
+    pub(crate) fn overhang_of(&self, node: &Node, moments: &SurfaceMoments) -> &[Overhang] {
+        if moments.coherence < 1.0 {
+            return &[];
+        }
+        &self.overhang[node.piece_start as usize..(node.piece_start + node.piece_len) as usize]
     }
 }
 
@@ -390,6 +451,19 @@ fn reduce_polygon(hull: &mut Vec<[Real; 2]>, max: usize) {
         }
         hull.remove(best);
     }
+}
+
+/// Whether the triangles `node_tris` lie in one plane: their normals agree to within
+/// `ROUNDOFF_REL` (the coherence `|Σ aᵢ nᵢ| / Σ aᵢ` of `moments.rs` rounds to 1 there).
+fn planar(node_tris: &[u32], tris: &[[Vec3; 3]]) -> bool {
+    let (mut sum, mut len) = (Vec3::zeros(), 0.0);
+    for &t in node_tris {
+        let [a, b, c] = &tris[t as usize];
+        let an = (b - a).cross(&(c - a));
+        sum += an;
+        len += an.norm();
+    }
+    len > 0.0 && sum.norm() >= (1.0 - ROUNDOFF_REL) * len
 }
 
 /// Plane, slab, piece and deviation of an inner node.

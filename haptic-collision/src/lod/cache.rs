@@ -2,11 +2,14 @@
 //! content and the build's version, so that a second start of a program does no rebuild
 //! ([`LodBackend::with_cache`]).
 //!
-//! # Format (version 2)
+//! # Format (version 3)
 //! Little-endian. `HAPTICLOD\0` (10 bytes), the format version (`u32`), the key (`u64`, see
 //! [`hierarchy_key`]), the node count and the piece vertex count (`u64` each), the height and
-//! the triangle count (`u64`), the radius about the origin (`f64`), then each node (its nine
+//! the triangle count (`u64`), the count of measured overhangs and of their edges (`u64`), the
+//! radius about the origin (`f64`), then each node (its nine
 //! vector and three scalar `f64`s, then its five `u32`s) and each piece vertex (three `f64`s),
+//! then each planar piece's overhang (`overhang.rs`; new in version 3): the node's index (`u32`,
+//! increasing) and, for each edge of its piece, the band's width and uncovered area (`f64`s),
 //! and last the checksum (`u64`) of every byte before it: FNV-1a over little-endian 64-bit
 //! words, the last padded with zeros (version 1 hashed byte by byte, three times slower to load).
 //!
@@ -20,21 +23,23 @@ use std::time::Instant;
 use haptic_core::{Pose, Real, Vec3};
 
 use super::build::{Hierarchy, Node};
+use super::overhang::Overhang;
 use super::{LodBackend, LodError};
 use crate::mesh::TriMesh;
 
 const MAGIC: &[u8; 10] = b"HAPTICLOD\0";
 /// The file format's version.
-pub const FORMAT_VERSION: u32 = 2;
+pub const FORMAT_VERSION: u32 = 3;
 /// What the build does, in words: part of every key, so that a change to the build (a new
 /// bound, a new piece) makes old files another build's. Change it with the build.
-const BUILD: &str = "haptic-collision lod build 6: median split on centroids (a quad's two halves \
+const BUILD: &str = "haptic-collision lod build 7: median split on centroids (a quad's two halves \
                      at its centroid, together, quads.rs) or cut along the \
                      normals' spread (split.rs), planar convex pieces of at most \
                      MAX_PIECE_VERTICES, slab and deviation bounds (piece → surface regions \
                      dropped once bounded, candidates' distances in their own planes, the node's \
                      children always among them; deviations within ROUNDOFF_REL of the radius \
-                     none; of equally long axes, the first)";
+                     none; of equally long axes, the first; the pieces' overhang widths, \
+                     overhang.rs)";
 
 /// A saved hierarchy could not be read.
 #[derive(Debug, thiserror::Error)]
@@ -226,12 +231,16 @@ fn u32_at(b: &[u8], at: usize) -> u32 {
     u32::from_le_bytes(w)
 }
 
-/// Bytes of the header: magic, version, key, four counts and the radius.
-const HEADER_BYTES: usize = 10 + 4 + 8 + 4 * 8 + 8;
+/// Bytes of the header: magic, version, key, six counts and the radius.
+const HEADER_BYTES: usize = 10 + 4 + 8 + 6 * 8 + 8;
 /// Bytes of one node: three vectors, three reals and five indices.
 const NODE_BYTES: usize = 3 * 24 + 3 * 8 + 5 * 4;
 /// Bytes of one piece vertex.
 const VERTEX_BYTES: usize = 24;
+/// Bytes of a measured piece's entry, before its edges': the node's index.
+const MEASURED_BYTES: usize = 4;
+/// Bytes of one edge of a measured piece: its overhang's width and area.
+const OVERHANG_BYTES: usize = 16;
 /// Bytes of the checksum at the end.
 const CHECKSUM_BYTES: usize = 8;
 
@@ -241,11 +250,27 @@ impl Hierarchy {
     /// # Errors
     /// The writer's.
     pub fn write_to(&self, mut out: impl Write, key: u64) -> std::io::Result<()> {
+        // The planar pieces whose overhang the build measured (the others' is infinite, and a
+        // leaf's 0: neither is written).
+        let measured: Vec<u32> = (0..self.nodes.len() as u32)
+            .filter(|&i| {
+                let n = &self.nodes[i as usize];
+                !n.is_leaf()
+                    && n.piece_len > 0
+                    && self.overhang[n.piece_start as usize].width_m.is_finite()
+            })
+            .collect();
+        let measured_vertices: usize = measured
+            .iter()
+            .map(|&i| self.nodes[i as usize].piece_len as usize)
+            .sum();
         let mut w = Writer {
             buf: Vec::with_capacity(
                 HEADER_BYTES
                     + self.nodes.len() * NODE_BYTES
                     + self.piece.len() * VERTEX_BYTES
+                    + measured.len() * MEASURED_BYTES
+                    + measured_vertices * OVERHANG_BYTES
                     + CHECKSUM_BYTES,
             ),
         };
@@ -256,6 +281,8 @@ impl Hierarchy {
         w.u64(self.piece.len() as u64);
         w.u64(self.height() as u64);
         w.u64(self.triangle_count() as u64);
+        w.u64(measured.len() as u64);
+        w.u64(measured_vertices as u64);
         w.f64(self.radius_about_origin_m());
         for n in &self.nodes {
             w.vec3(&n.center);
@@ -270,6 +297,15 @@ impl Hierarchy {
         }
         for p in &self.piece {
             w.vec3(p);
+        }
+        for &i in &measured {
+            w.u32(i);
+            let n = &self.nodes[i as usize];
+            let s = n.piece_start as usize;
+            for o in &self.overhang[s..s + n.piece_len as usize] {
+                w.f64(o.width_m);
+                w.f64(o.area_m2);
+            }
         }
         let hash = checksum(&w.buf);
         out.write_all(&w.buf)?;
@@ -297,8 +333,8 @@ impl Hierarchy {
             .ok_or(HierarchyFileError::Corrupt("counts"))?;
         let pieces_max = nodes_expected.saturating_mul(super::MAX_PIECE_VERTICES);
         let bytes_max = nodes_expected
-            .saturating_mul(NODE_BYTES)
-            .saturating_add(pieces_max.saturating_mul(VERTEX_BYTES))
+            .saturating_mul(NODE_BYTES + MEASURED_BYTES)
+            .saturating_add(pieces_max.saturating_mul(VERTEX_BYTES + OVERHANG_BYTES))
             .saturating_add(HEADER_BYTES + CHECKSUM_BYTES);
         let mut file = Vec::new();
         input
@@ -329,6 +365,7 @@ impl Hierarchy {
         }
         let (node_count, piece_count, height, triangle_count) =
             (r.u64()?, r.u64()?, r.u64()?, r.u64()?);
+        let (measured_count, measured_vertices) = (r.u64()?, r.u64()?);
         let radius = r.f64()?;
         // The counts a hierarchy of this mesh has; anything else is corrupt, not an allocation
         // to attempt.
@@ -336,16 +373,24 @@ impl Hierarchy {
             || node_count != nodes_expected as u64
             || piece_count > pieces_max as u64
             || height > node_count
+            || measured_count > node_count
+            || measured_vertices > piece_count
         {
             return Err(HierarchyFileError::Corrupt("counts"));
         }
+        let (measured_count, measured_vertices) =
+            (measured_count as usize, measured_vertices as usize);
         let (node_count, piece_count, height, triangle_count) = (
             nodes_expected,
             piece_count as usize,
             height as usize,
             expected_triangles,
         );
-        let body = HEADER_BYTES + node_count * NODE_BYTES + piece_count * VERTEX_BYTES;
+        let body = HEADER_BYTES
+            + node_count * NODE_BYTES
+            + piece_count * VERTEX_BYTES
+            + measured_count * MEASURED_BYTES
+            + measured_vertices * OVERHANG_BYTES;
         if file.len() < body + CHECKSUM_BYTES {
             return Err(HierarchyFileError::Truncated);
         }
@@ -359,7 +404,10 @@ impl Hierarchy {
             return Err(HierarchyFileError::Corrupt("hash"));
         }
         // The body's length was checked above: every chunk is whole.
-        let (node_bytes, piece_bytes) = r.rest.split_at(node_count * NODE_BYTES);
+        let (node_bytes, rest) = r.rest.split_at(node_count * NODE_BYTES);
+        let (piece_bytes, rest) = rest.split_at(piece_count * VERTEX_BYTES);
+        let measured_bytes =
+            &rest[..measured_count * MEASURED_BYTES + measured_vertices * OVERHANG_BYTES];
         let nodes: Vec<Node> = node_bytes
             .chunks_exact(NODE_BYTES)
             .map(|b| Node {
@@ -388,15 +436,70 @@ impl Hierarchy {
         if check_tree(&nodes, piece_count, triangle_count)? != height {
             return Err(HierarchyFileError::Corrupt("height"));
         }
+        let overhang = read_overhang(&nodes, piece_count, measured_count, measured_bytes)?;
         Ok(Hierarchy::from_parts(
             nodes,
             piece,
+            overhang,
             radius,
             triangle_count,
             height,
             start.elapsed().as_secs_f64(),
         ))
     }
+}
+
+/// The pieces' overhang (`overhang.rs`) from the `count` entries of `bytes`, each a measured
+/// inner node's index (increasing) and its piece's edges' widths and areas (finite, 0 or more),
+/// the whole of `bytes`: a leaf's is 0, an inner node's not written infinite (not measured).
+fn read_overhang(
+    nodes: &[Node],
+    piece_count: usize,
+    count: usize,
+    mut bytes: &[u8],
+) -> Result<Vec<Overhang>, HierarchyFileError> {
+    let corrupt = HierarchyFileError::Corrupt;
+    let unmeasured = Overhang {
+        width_m: Real::INFINITY,
+        area_m2: Real::INFINITY,
+    };
+    let mut overhang = vec![unmeasured; piece_count];
+    for n in nodes.iter().filter(|n| n.is_leaf()) {
+        let s = n.piece_start as usize;
+        overhang[s..s + n.piece_len as usize].fill(Overhang::default());
+    }
+    let mut next = 0usize;
+    for _ in 0..count {
+        if bytes.len() < MEASURED_BYTES {
+            return Err(corrupt("overhang entries"));
+        }
+        let i = u32_at(bytes, 0) as usize;
+        bytes = &bytes[MEASURED_BYTES..];
+        let Some(n) = nodes.get(i).filter(|n| i >= next && !n.is_leaf()) else {
+            return Err(corrupt("overhang entries"));
+        };
+        next = i + 1;
+        let (s, len) = (n.piece_start as usize, n.piece_len as usize);
+        if bytes.len() < len * OVERHANG_BYTES {
+            return Err(corrupt("overhang entries"));
+        }
+        for (k, o) in overhang[s..s + len].iter_mut().enumerate() {
+            let (width_m, area_m2) = (
+                f64_at(bytes, k * OVERHANG_BYTES),
+                f64_at(bytes, k * OVERHANG_BYTES + 8),
+            );
+            let ok = |x: Real| x.is_finite() && x >= 0.0;
+            if !(ok(width_m) && ok(area_m2)) {
+                return Err(corrupt("an overhang width"));
+            }
+            *o = Overhang { width_m, area_m2 };
+        }
+        bytes = &bytes[len * OVERHANG_BYTES..];
+    }
+    if !bytes.is_empty() {
+        return Err(corrupt("overhang entries"));
+    }
+    Ok(overhang)
 }
 
 /// Checks a tree read from a file as the walk will use it, and returns its height:

@@ -67,6 +67,7 @@ mod cache;
 pub(crate) mod closest;
 mod deviation;
 mod moments;
+mod overhang;
 mod quads;
 pub(crate) mod query;
 mod refine;
@@ -85,6 +86,7 @@ pub(crate) use build::ROUNDOFF_REL;
 pub use cache::{CacheOutcome, FORMAT_VERSION, HierarchyFileError, hierarchy_key};
 use closest::closest_approaches;
 pub(crate) use moments::SurfaceMoments;
+pub(crate) use overhang::Overhang;
 use query::{Frames, Nearest, Scratch, Walk, collide};
 pub use stopping::{StoppingRule, UnknownStoppingRule};
 

@@ -136,8 +136,11 @@ pub(crate) fn surface_moments(
         let mut m = SurfaceMoments {
             area_m2: area,
             cover: 1.0,
+            // A planar surface's normals agree to roundoff: within `ROUNDOFF_REL` of 1, it is 1
+            // (the query reads the overhang of planar pieces only, `Hierarchy::overhang_of`).
             coherence: if area > 0.0 {
-                (vector_area[i].norm() / area).min(1.0)
+                let c = vector_area[i].norm() / area;
+                if c >= 1.0 - ROUNDOFF_REL { 1.0 } else { c }
             } else {
                 1.0
             },
@@ -341,7 +344,13 @@ mod tests {
             }
             let got = moments[i];
             assert!((got.area_m2 - a).abs() <= 1e-12 * a);
+            // Within roundoff of 1, a planar surface's: 1.
             let coherence = vector_area.norm() / a;
+            let coherence = if coherence >= 1.0 - ROUNDOFF_REL {
+                1.0
+            } else {
+                coherence
+            };
             assert!(
                 (got.coherence - coherence).abs() < 1e-12,
                 "node {i}: coherence {} vs {coherence}",

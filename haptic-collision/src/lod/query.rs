@@ -6,8 +6,8 @@ use haptic_core::{
 
 use super::build::{Hierarchy, Node, PieceBall};
 use super::refine::{
-    FACING_COS, Written, band_weight_m3, refine_regions, wall_weight_error_m3, weight_error_m3,
-    weight_unsure,
+    FACING_COS, Written, band_weight_m3, overhang_weight_error_m3, refine_regions,
+    wall_weight_error_m3, weight_error_m3, weight_unsure,
 };
 use super::{LodError, MAX_PIECE_VERTICES};
 use crate::geometry::PairContact;
@@ -536,7 +536,8 @@ pub(crate) fn walk_from_stack(
             // where those of the surfaces lean from them (`refine.rs`).
             let regions = if facing {
                 let walls = pass == Pass::Record && mb.spread_tan > 0.0;
-                pair_region_beside(&buf[..len], pb, &b.normal, delta, offset, walls)
+                let overhang = (tool.overhang_of(a, ma), obs.overhang_of(b, mb));
+                pair_region_beside(&buf[..len], pb, &b.normal, delta, offset, walls, overhang)
             } else {
                 pair_region(&buf[..len], pb, &b.normal, delta, offset)
             };
@@ -582,7 +583,8 @@ pub(crate) fn walk_from_stack(
             let weight_loose = |r: &RegionContact| {
                 let area_m2 = r.area_m2 * cover;
                 let w = area_m2 * gap_weight_m(r.depth_m, delta);
-                weight_error_m3(w, area_m2, offset.half_width_m, cover)
+                let base = weight_error_m3(w, area_m2, offset.half_width_m, cover);
+                base + overhang_weight_error_m3(r.overhang_m3, w, cover, base)
                     > walk.weight_error_per_weight * w
             };
             if regions.region.is_some()
@@ -614,17 +616,20 @@ pub(crate) fn walk_from_stack(
                     let g_m = gap_weight_m(pc.depth, delta);
                     let height_m = pc.depth.abs() + offset.half_width_m;
                     let walls_m3 = wall_weight_error_m3(r.walls_m, height_m, mb.spread_tan, g_m);
+                    let w = area_m2 * g_m;
+                    let base = weight_error_m3(w, area_m2, offset.half_width_m, cover);
+                    let overhang_m3 = overhang_weight_error_m3(r.overhang_m3, w, cover, base);
                     written.push(
                         Written::of(
                             out.len(),
                             (ia, ib),
-                            (area_m2 * g_m, area_m2),
+                            (w, area_m2),
                             (coherence, offset.half_width_m, cover),
                             &pc.n,
                             r.pieces_beyond(delta) && coherence < walk.min_coherence,
                             unsure,
                         )
-                        .with_wall_error(walls_m3 * cover),
+                        .with_weight_error(walls_m3 * cover + overhang_m3),
                     );
                 }
                 frames.emit(&pc, fa, fb, area_m2, out)?;

@@ -220,3 +220,38 @@ pub fn wavy_slab(
     }
     mesh(v, t)
 }
+
+/// A plate's face in the plane z = 0, facing `+z`, around a round hole of radius `r_in`:
+/// `segments` quads from the hole's circle out to `outer_m(cos, sin)` along the same ray (the
+/// ray of vertex `s` at the angle `2π (s + phase) / segments`), each split in two (long thin
+/// triangles, as a plate's face around a drilled hole is meshed).
+pub fn drilled_face(
+    r_in: Real,
+    segments: usize,
+    phase: Real,
+    outer_m: impl Fn(Real, Real) -> Real,
+) -> TriMesh {
+    let n = segments as u32;
+    let mut v = Vec::new();
+    for outer in [false, true] {
+        for s in 0..segments {
+            let a = std::f64::consts::TAU * (s as Real + phase) / segments as Real;
+            let (c, d) = (a.cos(), a.sin());
+            let r = if outer { outer_m(c, d) } else { r_in };
+            v.push(Vec3::new(r * c, r * d, 0.0));
+        }
+    }
+    let mut t = Vec::new();
+    for s in 0..n {
+        let s1 = (s + 1) % n;
+        t.push([s, s1, n + s1]);
+        t.push([s, n + s1, n + s]);
+    }
+    mesh(v, t)
+}
+
+/// A flat ring in the plane z = 0, facing `+z`, between radii `r_in` and `r_out`
+/// ([`drilled_face`]).
+pub fn annulus(r_in: Real, r_out: Real, segments: usize) -> TriMesh {
+    drilled_face(r_in, segments, 0.0, |_, _| r_out)
+}

@@ -103,6 +103,7 @@ fn a_facing_piece_beyond_a_wall_says_how_far_and_how_long_it_faces_it() {
             DELTA,
             HeightOffset::NONE,
             false,
+            (&[], &[]),
         );
         assert!(r.region.is_none() && r.nearest_m == Real::INFINITY);
         r.beside
@@ -126,6 +127,7 @@ fn a_facing_piece_beyond_a_wall_says_how_far_and_how_long_it_faces_it() {
         DELTA,
         HeightOffset::NONE,
         false,
+        (&[], &[]),
     );
     assert!(over.region.is_some() && over.beside.is_none());
     let plain = pair_region(
@@ -154,10 +156,18 @@ fn a_region_measures_its_length_along_the_walls_it_ends_at() {
     let floor = square(0.0, 0.0, 0.01, 0.0);
     let nb = Vec3::z();
     let walls = |tool: &[Vec3], measure: bool| {
-        pair_region_beside(tool, &floor, &nb, DELTA, HeightOffset::NONE, measure)
-            .region
-            .unwrap()
-            .walls_m
+        pair_region_beside(
+            tool,
+            &floor,
+            &nb,
+            DELTA,
+            HeightOffset::NONE,
+            measure,
+            (&[], &[]),
+        )
+        .region
+        .unwrap()
+        .walls_m
     };
     // Over x 8–10 mm, y 6–10 mm: along the walls x = 10 mm (4 mm) and y = 10 mm (2 mm).
     let over_a_corner = square(0.008, 0.006, 0.01, 0.1e-3);
@@ -567,4 +577,60 @@ proptest! {
             None => prop_assert!(g < 0.02 * scale, "missed {g}"),
         }
     }
+}
+
+/// A region's weight over the bands where the pieces overhang their surfaces
+/// ([`RegionContact::overhang_m3`]): 0 where it reaches none; where it reaches one, its extent
+/// along the edge by how far into the band it reaches, at most the band's uncovered area, at the
+/// region's largest weight per area; the whole weight where a piece may overhang anywhere; the
+/// tool's bands measured in its own plane.
+#[test]
+fn a_regions_weight_over_the_overhang_bands_is_bounded() {
+    let square = |x0: Real, y0: Real, z: Real, size: Real| {
+        [
+            Vec3::new(x0, y0, z),
+            Vec3::new(x0 + size, y0, z),
+            Vec3::new(x0 + size, y0 + size, z),
+            Vec3::new(x0, y0 + size, z),
+        ]
+    };
+    let floor = square(0.0, 0.0, 0.0, 0.01);
+    let nb = Vec3::z();
+    let none = Overhang::default();
+    let band = |width_m: Real, area_m2: Real| [Overhang { width_m, area_m2 }, none, none, none];
+    let overhang = |tool: &[Vec3], bands: (&[Overhang], &[Overhang])| {
+        let r = pair_region_beside(tool, &floor, &nb, DELTA, HeightOffset::NONE, false, bands)
+            .region
+            .unwrap();
+        (r.overhang_m3, r.area_m2 * (r.depth_m + DELTA))
+    };
+    // A 2 mm square 0.1 mm over the floor (`g` = 0.9 mm): its weight 3.6 · 10⁻⁹ m³.
+    let (far, near) = (
+        square(0.004, 0.005, 1e-4, 0.002),
+        square(0.004, 0.0005, 1e-4, 0.002),
+    );
+    let floor_band = band(1e-3, 5e-6);
+    // Five millimetres from the band along the floor's edge y = 0: none.
+    assert_eq!(overhang(&far, (&[], &floor_band)).0, 0.0);
+    // Half a millimetre into a band of 1 mm, over 2 mm: 1 mm² at 0.9 mm.
+    let (o, w) = overhang(&near, (&[], &floor_band));
+    assert!((w - 3.6e-9).abs() < 1e-20, "{w}");
+    assert!((o - 0.9e-9).abs() < 1e-20, "{o}");
+    // At most the band's uncovered area, 0.5 mm².
+    let (o, _) = overhang(&near, (&[], &band(1e-3, 5e-7)));
+    assert!((o - 0.45e-9).abs() < 1e-20, "{o}");
+    // Overhanging anywhere (not measured): the whole weight.
+    let (o, w) = overhang(&far, (&[], &band(Real::INFINITY, Real::INFINITY)));
+    assert_eq!(o, w);
+    // The tool's own band along its edge from corner 0, 0.5 mm wide, wholly in the region.
+    let (o, _) = overhang(&far, (&band(5e-4, 1.0), &[]));
+    assert!((o - 0.9e-9).abs() < 1e-20, "{o}");
+    // `pair_region` measures nothing.
+    assert_eq!(
+        pair_region(&near, &floor, &nb, DELTA, HeightOffset::NONE)
+            .region
+            .unwrap()
+            .overhang_m3,
+        0.0
+    );
 }

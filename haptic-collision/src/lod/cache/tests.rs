@@ -27,6 +27,52 @@ fn a_saved_hierarchy_reads_back_the_same() {
     assert_eq!(back.radius_about_origin_m(), h.radius_about_origin_m());
 }
 
+/// A washer's pieces are planar and their overhang measured (`overhang.rs`): it reads back the
+/// same, and a file whose overhang does not hold (a negative width or area, an entry for a leaf
+/// or out of order) is refused, its hash re-sealed so that only the values can tell.
+#[test]
+fn a_planar_meshs_overhang_reads_back_the_same_and_forged_ones_are_refused() {
+    let mesh = testmesh::annulus(0.027, 0.03, 64);
+    let h = Hierarchy::build(&mesh);
+    let key = hierarchy_key(&mesh);
+    let bytes = saved(&h, key);
+    let back = Hierarchy::read_from(&bytes[..], &mesh).unwrap();
+    assert_eq!(back.overhang, h.overhang);
+    assert!(h.overhang.iter().any(|o| o.width_m > 0.0));
+    let inner = h.nodes.iter().position(|n| !n.is_leaf()).unwrap();
+    let at = h.nodes[inner].piece_start as usize;
+    for edit in [
+        &|o: &mut Overhang| o.width_m = -1e-3 as Real,
+        &|o: &mut Overhang| o.area_m2 = -1e-9 as Real,
+    ] as [&dyn Fn(&mut Overhang); 2]
+    {
+        let mut f = h.clone();
+        edit(&mut f.overhang[at]);
+        assert!(matches!(
+            Hierarchy::read_from(&saved(&f, key)[..], &mesh),
+            Err(HierarchyFileError::Corrupt("an overhang width"))
+        ));
+    }
+    // The first entry's node index (after the nodes and the piece vertices) made a leaf's, or
+    // the second's made the first's (out of order).
+    let entries = HEADER_BYTES + h.nodes.len() * NODE_BYTES + h.piece.len() * VERTEX_BYTES;
+    let leaf = h.nodes.iter().position(Node::is_leaf).unwrap() as u32;
+    let first = u32_at(&bytes, entries);
+    let second_at =
+        entries + MEASURED_BYTES + h.nodes[first as usize].piece_len as usize * OVERHANG_BYTES;
+    for (offset, index) in [(entries, leaf), (second_at, first)] {
+        let mut bad = bytes.clone();
+        bad[offset..offset + 4].copy_from_slice(&index.to_le_bytes());
+        let body = bad.len() - CHECKSUM_BYTES;
+        let hash = checksum(&bad[..body]);
+        bad[body..].copy_from_slice(&hash.to_le_bytes());
+        assert!(matches!(
+            Hierarchy::read_from(&bad[..], &mesh),
+            Err(HierarchyFileError::Corrupt(_))
+        ));
+    }
+}
+
 #[test]
 fn truncated_foreign_other_and_corrupt_files_are_refused() {
     let mesh = sphere();
@@ -147,7 +193,29 @@ mod edited {
     fn valid() -> &'static (TriMesh, Vec<u8>) {
         static VALID: OnceLock<(TriMesh, Vec<u8>)> = OnceLock::new();
         VALID.get_or_init(|| {
-            let mesh = testmesh::bumpy_sphere(1, 0.05, 0.1, 3);
+            // A bumpy sphere and a washer beside it, so that the file holds measured
+            // overhangs (`overhang.rs`) too.
+            let sphere = testmesh::bumpy_sphere(1, 0.05, 0.1, 3);
+            let washer = testmesh::annulus(0.02, 0.03, 16);
+            let n = sphere.vertices().len() as u32;
+            let vertices = sphere
+                .vertices()
+                .iter()
+                .copied()
+                .chain(
+                    washer
+                        .vertices()
+                        .iter()
+                        .map(|v| v + Vec3::new(0.0, 0.0, 0.06)),
+                )
+                .collect();
+            let triangles = sphere
+                .triangles()
+                .iter()
+                .copied()
+                .chain(washer.triangles().iter().map(|t| t.map(|i| i + n)))
+                .collect();
+            let mesh = testmesh::mesh(vertices, triangles);
             let bytes = saved(&Hierarchy::build(&mesh), hierarchy_key(&mesh));
             (mesh, bytes)
         })
