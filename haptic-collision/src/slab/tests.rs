@@ -3,6 +3,16 @@ use proptest::prelude::*;
 
 const DELTA: Real = 1e-3;
 
+/// The square `[x0, x0 + size] × [y0, y0 + size]` at height `z`, counter-clockwise about `+z`.
+fn square(x0: Real, y0: Real, size: Real, z: Real) -> [Vec3; 4] {
+    [
+        Vec3::new(x0, y0, z),
+        Vec3::new(x0 + size, y0, z),
+        Vec3::new(x0 + size, y0 + size, z),
+        Vec3::new(x0, y0 + size, z),
+    ]
+}
+
 /// `(∫g, ∫g x, ∫g²)` of a region as its contact stands for it.
 fn sums_of(r: &RegionContact) -> (Real, Vec3, Real) {
     let g = r.area_m2 * (r.depth_m + DELTA);
@@ -84,15 +94,7 @@ fn pieces_beyond_delta_are_told_from_pieces_apart_within_it() {
 /// nothing).
 #[test]
 fn a_facing_piece_beyond_a_wall_says_how_far_and_how_long_it_faces_it() {
-    let square = |x0: Real, y0: Real, z: Real| {
-        let size = 0.01;
-        [
-            Vec3::new(x0, y0, z),
-            Vec3::new(x0 + size, y0, z),
-            Vec3::new(x0 + size, y0 + size, z),
-            Vec3::new(x0, y0 + size, z),
-        ]
-    };
+    let square = |x0: Real, y0: Real, z: Real| square(x0, y0, 0.01, z);
     let floor = square(0.0, 0.0, 0.0);
     let nb = Vec3::z();
     let beside = |x0, y0| {
@@ -145,14 +147,6 @@ fn a_facing_piece_beyond_a_wall_says_how_far_and_how_long_it_faces_it() {
 /// none.
 #[test]
 fn a_region_measures_its_length_along_the_walls_it_ends_at() {
-    let square = |x0: Real, y0: Real, size: Real, z: Real| {
-        [
-            Vec3::new(x0, y0, z),
-            Vec3::new(x0 + size, y0, z),
-            Vec3::new(x0 + size, y0 + size, z),
-            Vec3::new(x0, y0 + size, z),
-        ]
-    };
     let floor = square(0.0, 0.0, 0.01, 0.0);
     let nb = Vec3::z();
     let walls = |tool: &[Vec3], measure: bool| {
@@ -586,15 +580,7 @@ proptest! {
 /// tool's bands measured in its own plane.
 #[test]
 fn a_regions_weight_over_the_overhang_bands_is_bounded() {
-    let square = |x0: Real, y0: Real, z: Real, size: Real| {
-        [
-            Vec3::new(x0, y0, z),
-            Vec3::new(x0 + size, y0, z),
-            Vec3::new(x0 + size, y0 + size, z),
-            Vec3::new(x0, y0 + size, z),
-        ]
-    };
-    let floor = square(0.0, 0.0, 0.0, 0.01);
+    let floor = square(0.0, 0.0, 0.01, 0.0);
     let nb = Vec3::z();
     let none = Overhang::default();
     let band = |width_m: Real, area_m2: Real| [Overhang { width_m, area_m2 }, none, none, none];
@@ -606,8 +592,8 @@ fn a_regions_weight_over_the_overhang_bands_is_bounded() {
     };
     // A 2 mm square 0.1 mm over the floor (`g` = 0.9 mm): its weight 3.6 · 10⁻⁹ m³.
     let (far, near) = (
-        square(0.004, 0.005, 1e-4, 0.002),
-        square(0.004, 0.0005, 1e-4, 0.002),
+        square(0.004, 0.005, 0.002, 1e-4),
+        square(0.004, 0.0005, 0.002, 1e-4),
     );
     let floor_band = band(1e-3, 5e-6);
     // Five millimetres from the band along the floor's edge y = 0: none.
