@@ -162,10 +162,10 @@ impl Hierarchy {
                             [Real::INFINITY; MAX_PIECE_VERTICES],
                         );
                         if local.len() >= 3 && planar(node_tris, tris) {
-                            let contains = |t: u32| (lo..hi).contains(&rank[t as usize]);
                             let surface = NodeSurface {
                                 triangles: node_tris,
-                                contains: &contains,
+                                rank: &rank,
+                                range: (lo, hi),
                                 basis: plane_basis(&node.normal),
                                 origin: node.center,
                             };

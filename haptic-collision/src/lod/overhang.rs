@@ -101,8 +101,11 @@ pub(super) struct OverhangScratch {
 pub(super) struct NodeSurface<'a> {
     /// The node's triangles (source indices).
     pub triangles: &'a [u32],
-    /// Whether a triangle (source index) is the node's.
-    pub contains: &'a dyn Fn(u32) -> bool,
+    /// By triangle (source index): its place in the order the nodes' ranges read.
+    pub rank: &'a [u32],
+    /// The node's range of places in that order: a triangle is the node's where its place is
+    /// in it.
+    pub range: (u32, u32),
     /// The in-plane basis `u`, `w` of the piece's 2-D corners.
     pub basis: (Vec3, Vec3),
     /// The origin of the 2-D coordinates.
@@ -155,7 +158,7 @@ pub(super) fn overhang_widths(
     for &t in node.triangles {
         let tri = &tris[t as usize];
         for (k, &other) in across.0[t as usize].iter().enumerate() {
-            if other == NONE || !(node.contains)(other) {
+            if other == NONE || !(node.range.0..node.range.1).contains(&node.rank[other as usize]) {
                 scratch
                     .segments
                     .push([flat(&tri[k]), flat(&tri[(k + 1) % 3])]);
@@ -290,17 +293,28 @@ const MAX_CLIPPED: usize = 2 * MAX_PIECE_VERTICES + 4;
 /// A convex polygon of at most [`MAX_CLIPPED`] corners (2-D).
 type Polygon = ([[Real; 2]; MAX_CLIPPED], usize);
 
-/// The convex polygon `poly` where every half-plane of `planes` ([`value`]) is at least 0.
+/// The convex polygon `poly` where every half-plane of `planes` ([`value`]) is at least 0 (a
+/// plane that leaves every corner inside cuts nothing and copies nothing).
 fn clip(poly: &[[Real; 2]], planes: &[[Real; 3]]) -> Polygon {
-    let mut cur = [[0.0; 2]; MAX_CLIPPED];
-    let mut next = [[0.0; 2]; MAX_CLIPPED];
+    let mut first = [[0.0; 2]; MAX_CLIPPED];
+    let mut second = [[0.0; 2]; MAX_CLIPPED];
     let mut k = poly.len().min(MAX_CLIPPED);
-    cur[..k].copy_from_slice(&poly[..k]);
+    first[..k].copy_from_slice(&poly[..k]);
+    let (mut cur, mut next) = (&mut first, &mut second);
     for plane in planes {
+        let mut values = [0.0; MAX_CLIPPED];
+        let mut all_in = true;
+        for (v, p) in values.iter_mut().zip(&cur[..k]) {
+            *v = value(plane, p);
+            all_in &= *v >= 0.0;
+        }
+        if all_in {
+            continue;
+        }
         let mut len = 0;
         for j in 0..k {
             let (p, q) = (cur[j], cur[(j + 1) % k]);
-            let (vp, vq) = (value(plane, &p), value(plane, &q));
+            let (vp, vq) = (values[j], values[(j + 1) % k]);
             if vp >= 0.0 && len < MAX_CLIPPED {
                 next[len] = p;
                 len += 1;
@@ -314,10 +328,10 @@ fn clip(poly: &[[Real; 2]], planes: &[[Real; 3]]) -> Polygon {
         std::mem::swap(&mut cur, &mut next);
         k = len;
         if k < 3 {
-            return (cur, 0);
+            return (*cur, 0);
         }
     }
-    (cur, k)
+    (*cur, k)
 }
 
 /// The area (m²) of the convex polygon `poly` where every half-plane of `planes` is at least 0.
