@@ -7,7 +7,9 @@
 //!   fork laid on the outside of the teacup's wall (a few small contacts, at coarse levels fewer
 //!   than the clusters), and the fork laid on the back of Keenan Crane's Spot scaled to 8.5 cm,
 //!   `δ` = 2 mm (a smooth obstacle smaller than the tool, its triangles smaller than `δ` and its
-//!   surface curved on that scale: the hardest scene of the suite).
+//!   surface curved on that scale: the hardest scene of the suite); and Spot lowered upright
+//!   onto a bowl it cannot enter (`shapes::socket`, 48 segments), its feet on the flat rim
+//!   whose coarse pieces overhang the bowl's opening (`lod/overhang.rs`).
 //! - The peg in its hole remeshed (`shapes::split_at_midpoints` for the peg,
 //!   `shapes::split_at_centroids` for the hole, whose thin fans are what meshing tools leave),
 //!   on the same poses: the repository's meshes against the same surfaces tessellated
@@ -49,7 +51,7 @@ use crate::common;
 mod scenes;
 use scenes::{
     Entry, ball_in_socket, bolt_and_nut, boxes, file_scene, fork_on_cup, fork_on_spot, gears,
-    peg_in_bushing, peg_in_hole, ring_on_cone, utensil_in_mug,
+    peg_in_bushing, peg_in_hole, ring_on_cone, spot_on_bowl, utensil_in_mug,
 };
 
 /// A row of `suite.json`.
@@ -165,6 +167,7 @@ pub(super) fn run(
         utensil_in_mug("spoon", n)?,
         fork_on_cup(n)?,
         fork_on_spot(n)?,
+        spot_on_bowl(n)?,
     ];
     entries.splice(2..2, peg_in_hole(n)?);
     entries.extend(boxes(n)?);

@@ -223,6 +223,40 @@ pub(super) fn fork_on_spot(n: usize) -> anyhow::Result<Entry> {
     )
 }
 
+/// Keenan Crane's cow "Spot" (tool), scaled to 8.5 cm, lowered upright onto a bowl it cannot
+/// enter (hemispherical shells of 30 and 26 mm with a flat rim between them, 48 segments:
+/// `shapes::socket`) until its feet touch the rim, then moved around that pose, `δ` = 1.3 mm
+/// (1 % of the cow's diagonal): the rim is flat but not convex, and its coarse pieces (convex
+/// hulls of a few of its segments) overhang the bowl's opening, where the feet lie in part
+/// (`lod/overhang.rs`; 0.097 / 0.332 at 2.5 % on 64 segments before the overhang was measured,
+/// probes 39 and 40).
+pub(super) fn spot_on_bowl(n: usize) -> anyhow::Result<Entry> {
+    let delta = 1.3e-3;
+    let meshes = common::meshes_dir();
+    let (tool, _) = collision::load_tool(&meshes.join("spot_keenan_5856.stl"), 0.05)?;
+    let bowl = shapes::socket(0.026, 0.03, 1)?;
+    let poses = collision::approach_poses(
+        &tool,
+        &bowl,
+        UnitQuaternion::identity(),
+        Vec3::z(),
+        delta,
+        n,
+    )?;
+    Ok(Entry {
+        scene: Scene {
+            name: "spot-on-bowl".into(),
+            description: "Keenan Crane's Spot (tool, 8.5 cm) lowered upright onto a bowl it cannot enter (shells of 30 and 26 mm, a flat rim between them, 48 segments) until its feet touch the rim, then moved around that pose".into(),
+            tool,
+            obstacle: bowl,
+            poses,
+            delta_m: delta,
+            k_c: 2000.0,
+        },
+        family: None,
+    })
+}
+
 /// The basemesh fork lowered flat (along −z, unturned) onto the repository mesh `obstacle`
 /// loaded at `scale` (metres per file unit) until it touches, then moved around that pose
 /// (`collision::approach_poses`), with the penalty reaching `delta_m`.
