@@ -114,7 +114,8 @@ pub(super) struct NodeSurface<'a> {
 
 /// The widths `tᵢ` (m) of the bands along the edges of the piece `hull` (2-D, counter-clockwise,
 /// at least three corners; edge `i` from corner `i`) outside which the piece lies under the
-/// node's surface (module docs), into `out[..hull.len()]`.
+/// node's surface (module docs), into `out[..hull.len()]`, and each band's uncovered area (m²)
+/// into `uncovered[..hull.len()]`; every one infinite where the widths do not settle.
 pub(super) fn overhang_widths(
     hull: &[[Real; 2]],
     node: &NodeSurface<'_>,
@@ -145,10 +146,14 @@ pub(super) fn overhang_widths(
         let e = [q[0] - p[0], q[1] - p[1]];
         let len = (e[0] * e[0] + e[1] * e[1]).sqrt();
         size = size.max(len);
-        if len > 0.0 {
+        *wall = if len > 0.0 {
             let normal = [-e[1] / len, e[0] / len];
-            *wall = [normal[0], normal[1], normal[0] * p[0] + normal[1] * p[1]];
-        }
+            [normal[0], normal[1], normal[0] * p[0] + normal[1] * p[1]]
+        } else {
+            // A corner given twice bounds nothing: infinitely far from every point, it is never
+            // the nearest edge nor cuts the inner polygon.
+            [0.0, 0.0, Real::NEG_INFINITY]
+        };
     }
     let f = |i: usize, x: &[Real; 2]| value(&walls[i], x);
     let tolerance = ROUNDOFF_REL * size;

@@ -5,8 +5,10 @@ use haptic_core::{Real, Vec3};
 use nalgebra::UnitQuaternion;
 use proptest::prelude::*;
 
+use super::super::MAX_PIECE_VERTICES;
 use super::super::build::Hierarchy;
 use super::super::testmesh::{Lcg, annulus, bumpy_sphere, mesh};
+use super::{Across, NodeSurface, OverhangScratch, overhang_widths};
 use crate::geometry::plane_basis;
 use crate::mesh::TriMesh;
 
@@ -262,4 +264,71 @@ fn convex_faces_have_no_band_and_curved_pieces_none_measured() {
             assert!(h.overhang_of(n, h.moments_of(i as u32)).is_empty());
         }
     }
+}
+
+/// Two triangles meeting at one corner (a bow tie) under a square piece given with a corner
+/// twice: the gaps on either side of the tie lie in the bands (the boundary edges that cross
+/// the inner polygon push it back past them), their area is counted, and the edge of no length
+/// bounds nothing (before, it made every point's nearest edge and every band 0 wide).
+#[test]
+fn a_gap_between_two_parts_lies_in_the_bands_and_a_repeated_corner_bounds_nothing() {
+    let m = mesh(
+        vec![
+            Vec3::new(0.0, 0.0, 0.0),
+            Vec3::new(2.0, 0.0, 0.0),
+            Vec3::new(1.0, 1.0, 0.0),
+            Vec3::new(0.0, 2.0, 0.0),
+            Vec3::new(2.0, 2.0, 0.0),
+        ],
+        vec![[0, 1, 2], [2, 4, 3]],
+    );
+    let tris: Vec<[Vec3; 3]> = (0..2).map(|t| m.triangle(t)).collect();
+    let across = Across::of(&m);
+    let surface = NodeSurface {
+        triangles: &[0, 1],
+        rank: &[0, 1],
+        range: (0, 2),
+        basis: (Vec3::x(), Vec3::y()),
+        origin: Vec3::zeros(),
+    };
+    let hull = [[0.0, 0.0], [2.0, 0.0], [2.0, 0.0], [2.0, 2.0], [0.0, 2.0]];
+    let (mut widths, mut uncovered) = ([0.0; MAX_PIECE_VERTICES], [0.0; MAX_PIECE_VERTICES]);
+    let mut scratch = OverhangScratch::default();
+    overhang_widths(
+        &hull,
+        &surface,
+        &tris,
+        &across,
+        &mut scratch,
+        &mut widths,
+        &mut uncovered,
+    );
+    assert_eq!(widths[1], 0.0, "{widths:?}");
+    // Inward distance from the edge from corner `e`.
+    let from = |e: usize, x: [Real; 2]| {
+        let (p, q) = (hull[e], hull[(e + 1) % hull.len()]);
+        let (dx, dy) = (q[0] - p[0], q[1] - p[1]);
+        let len = (dx * dx + dy * dy).sqrt();
+        if len == 0.0 {
+            Real::INFINITY
+        } else {
+            (dx * (x[1] - p[1]) - dy * (x[0] - p[0])) / len
+        }
+    };
+    // The two gaps: left of x = 1 − |y − 1| and right of x = 1 + |y − 1|.
+    for k in 1..40 {
+        for j in 1..40 {
+            let x = [k as Real * 0.05, j as Real * 0.05];
+            let off = (x[1] - 1.0).abs();
+            if (x[0] - 1.0).abs() > off + 1e-9 {
+                assert!(
+                    (0..hull.len()).any(|e| from(e, x) <= widths[e] + 1e-12),
+                    "{x:?} {widths:?}"
+                );
+            }
+        }
+    }
+    // The two gaps, of area 1 each, are counted in the bands' uncovered areas.
+    let counted: Real = uncovered[..hull.len()].iter().sum();
+    assert!(counted >= 2.0 - 1e-9, "{uncovered:?}");
 }
