@@ -38,8 +38,10 @@ use crate::mesh::TriMesh;
 /// Marks "no triangle across this edge" in [`Across`].
 const NONE: u32 = u32::MAX;
 
-/// Most rounds of raising a width for an outline edge that still crosses the inner polygon;
-/// beyond them the piece is taken as overhanging anywhere (infinite widths).
+/// Most rounds of widening a band past a point of the inner polygon that lies under no
+/// triangle (in a hole of the surface, or in a gap between its parts); beyond them the piece is
+/// taken as overhanging anywhere (infinite widths). None of the tests' or the suite's pieces
+/// took more than a few.
 const MAX_ROUNDS: usize = 64;
 
 /// For each triangle of a mesh and each of its edges (edge `k` from corner `k` to corner
