@@ -40,8 +40,7 @@ const NONE: u32 = u32::MAX;
 
 /// Most rounds of widening a band past a point of the inner polygon that lies under no
 /// triangle (in a hole of the surface, or in a gap between its parts); beyond them the piece is
-/// taken as overhanging anywhere (infinite widths). None of the tests' or the suite's pieces
-/// took more than a few.
+/// taken as overhanging anywhere (infinite widths).
 const MAX_ROUNDS: usize = 64;
 
 /// For each triangle of a mesh and each of its edges (edge `k` from corner `k` to corner
