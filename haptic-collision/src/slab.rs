@@ -336,21 +336,9 @@ fn region<const BESIDE: bool>(
                 overhang_m2 = Real::INFINITY;
                 break;
             }
-            let into_m = vertices
-                .iter()
-                .map(|p| inside(i, p))
-                .fold(Real::INFINITY, Real::min)
-                / length;
-            if into_m >= o.width_m {
-                continue;
-            }
+            let from_edge = |p: &[Real; 3]| inside(i, p) / length;
             let along = |p: &[Real; 3]| (e[0] * p[0] + e[1] * p[1]) / length;
-            let (lo_m, hi_m) = vertices
-                .iter()
-                .fold((Real::INFINITY, Real::NEG_INFINITY), |(l, h), p| {
-                    (l.min(along(p)), h.max(along(p)))
-                });
-            overhang_m2 += ((o.width_m - into_m.max(0.0)) * (hi_m - lo_m).max(0.0)).min(o.area_m2);
+            overhang_m2 += band_overlap_m2(vertices, o, from_edge, along);
         }
         // The tool's edges, in its own plane (the region lies in it): the distance from the
         // edge's line, and the extent along it.
@@ -374,20 +362,8 @@ fn region<const BESIDE: bool>(
                 ];
                 (c[0] * c[0] + c[1] * c[1] + c[2] * c[2]).sqrt() / length
             };
-            let into_m = vertices
-                .iter()
-                .map(from_edge)
-                .fold(Real::INFINITY, Real::min);
-            if into_m >= o.width_m {
-                continue;
-            }
             let along = |p: &[Real; 3]| (e[0] * p[0] + e[1] * p[1] + e[2] * p[2]) / length;
-            let (lo_m, hi_m) = vertices
-                .iter()
-                .fold((Real::INFINITY, Real::NEG_INFINITY), |(l, h), p| {
-                    (l.min(along(p)), h.max(along(p)))
-                });
-            overhang_m2 += ((o.width_m - into_m) * (hi_m - lo_m).max(0.0)).min(o.area_m2);
+            overhang_m2 += band_overlap_m2(vertices, o, from_edge, along);
         }
     }
     let overhang_m3 = if overhang_m2 > 0.0 && delta_m + s - lo > 0.0 {
@@ -420,6 +396,32 @@ fn region<const BESIDE: bool>(
         depth_m,
     });
     out
+}
+
+/// The part of the region with corners `vertices` that may lie in the band `band` along an
+/// edge (m²): 0 where its least distance `from_edge` the edge's line is the band's width or
+/// more; else its extent `along` the edge by how far into the band it reaches, at most the
+/// band's uncovered area.
+fn band_overlap_m2(
+    vertices: &[[Real; 3]],
+    band: &Overhang,
+    from_edge: impl Fn(&[Real; 3]) -> Real,
+    along: impl Fn(&[Real; 3]) -> Real,
+) -> Real {
+    let into_m = vertices
+        .iter()
+        .map(&from_edge)
+        .fold(Real::INFINITY, Real::min);
+    if into_m >= band.width_m {
+        return 0.0;
+    }
+    let (lo_m, hi_m) = vertices
+        .iter()
+        .map(along)
+        .fold((Real::INFINITY, Real::NEG_INFINITY), |(l, h), x| {
+            (l.min(x), h.max(x))
+        });
+    ((band.width_m - into_m.max(0.0)) * (hi_m - lo_m).max(0.0)).min(band.area_m2)
 }
 
 /// The length of the edges of the clipped polygon `poly` (in `B`'s plane coordinates) that lie

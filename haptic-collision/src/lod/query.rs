@@ -616,20 +616,18 @@ pub(crate) fn walk_from_stack(
                     let g_m = gap_weight_m(pc.depth, delta);
                     let height_m = pc.depth.abs() + offset.half_width_m;
                     let walls_m3 = wall_weight_error_m3(r.walls_m, height_m, mb.spread_tan, g_m);
-                    let w = area_m2 * g_m;
-                    let base = weight_error_m3(w, area_m2, offset.half_width_m, cover);
-                    let overhang_m3 = overhang_weight_error_m3(r.overhang_m3, w, cover, base);
                     written.push(
                         Written::of(
                             out.len(),
                             (ia, ib),
-                            (w, area_m2),
+                            (area_m2 * g_m, area_m2),
                             (coherence, offset.half_width_m, cover),
                             &pc.n,
                             r.pieces_beyond(delta) && coherence < walk.min_coherence,
                             unsure,
                         )
-                        .with_weight_error(walls_m3 * cover + overhang_m3),
+                        .with_overhang_error(r.overhang_m3, cover)
+                        .with_wall_error(walls_m3 * cover),
                     );
                 }
                 frames.emit(&pc, fa, fb, area_m2, out)?;

@@ -255,12 +255,22 @@ impl Written {
 }
 
 impl Written {
-    /// The same region, its weight's error `extra_m3` larger: that of its boundary along the
-    /// obstacle piece's prism's walls ([`wall_weight_error_m3`]) and of where it lies over the
-    /// part of its pieces that overhangs their surfaces ([`overhang_weight_error_m3`]).
+    /// The same region, its weight's error `walls_m3` larger: that of its boundary along the
+    /// obstacle piece's prism's walls ([`wall_weight_error_m3`]).
     #[inline]
-    pub fn with_weight_error(mut self, extra_m3: Real) -> Self {
-        self.weight_bound += extra_m3.max(0.0);
+    pub fn with_wall_error(mut self, walls_m3: Real) -> Self {
+        self.weight_bound += walls_m3.max(0.0);
+        self
+    }
+
+    /// The same region, its weight's error raised where it may lie over the part of its pieces
+    /// that overhangs their surfaces, `overhang_m3` of its weight at most
+    /// ([`overhang_weight_error_m3`], against the estimate so far; `cover` the pieces' covers
+    /// multiplied).
+    #[inline]
+    pub fn with_overhang_error(mut self, overhang_m3: Real, cover: Real) -> Self {
+        let w = self.force.norm();
+        self.weight_bound += overhang_weight_error_m3(overhang_m3, w, cover, self.weight_bound);
         self
     }
 
@@ -523,10 +533,10 @@ mod tests {
             false,
         );
         assert_eq!(
-            w.with_weight_error(0.25).weight_bound,
+            w.with_wall_error(0.25).weight_bound,
             w.weight_bound + 0.25
         );
-        assert_eq!(w.with_weight_error(-1.0).weight_bound, w.weight_bound);
+        assert_eq!(w.with_wall_error(-1.0).weight_bound, w.weight_bound);
     }
 
     /// A region's bound is its direction's error `w (1 − c)`, its weight's `a s + w (1 − k)`;
