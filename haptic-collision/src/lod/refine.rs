@@ -532,10 +532,7 @@ mod tests {
             false,
             false,
         );
-        assert_eq!(
-            w.with_wall_error(0.25).weight_bound,
-            w.weight_bound + 0.25
-        );
+        assert_eq!(w.with_wall_error(0.25).weight_bound, w.weight_bound + 0.25);
         assert_eq!(w.with_wall_error(-1.0).weight_bound, w.weight_bound);
     }
 
