@@ -52,13 +52,23 @@
 //! - The deepest raw contact is kept as it is, so the closest approach (or deepest point) that
 //!   the query reports is unchanged by compaction.
 //!
-//! Areas below [`AREA_FLOOR_M2`] (degenerate triangles) are raised to it, so every cell has a
+//! Areas below [`area_floor_m2`] (degenerate triangles) are raised to it, so every cell has a
 //! weight. A cell of one contact is that contact; merged cells carry no feature indices.
 
 use haptic_core::{Contact, ContactSet, Mat3, NO_FEATURE, Pose, Real, Vec3, gap_weight_m};
 
-/// Smallest area a contact weighs for in a merge (m²): 10⁻¹⁸ m², a square nanometre.
-pub const AREA_FLOOR_M2: Real = 1e-18;
+/// The smallest area a contact weighs for in a merge, as a fraction of `δ²`: 10⁻¹² (10⁻¹⁸ m²,
+/// a square nanometre, at `δ` = 1 mm). Relative to the penalty's reach, not a fixed area, so
+/// that a scene given in other units is the same computation
+/// (`lod::tests::a_scene_in_other_units_gives_the_same_query`).
+pub const AREA_FLOOR_PER_DELTA2: Real = 1e-12;
+
+/// The smallest area a contact weighs for in a merge at the penalty's reach `delta_m` (m²):
+/// [`AREA_FLOOR_PER_DELTA2`] `δ²`.
+#[inline]
+pub fn area_floor_m2(delta_m: Real) -> Real {
+    AREA_FLOOR_PER_DELTA2 * delta_m * delta_m
+}
 
 /// Cells per side of the contacts' bounding box in the first pass.
 const FIRST_CELLS_PER_SIDE: Real = 8.0;
@@ -282,6 +292,7 @@ impl Compactor {
         }
         self.used.clear();
         let mask = self.table.len() - 1;
+        let floor_m2 = area_floor_m2(delta_m);
         let inv_h = 1.0 / h;
         for (i, c) in raw.iter().enumerate() {
             if i == skip {
@@ -309,7 +320,7 @@ impl Compactor {
                 cell.origin = c.p_a;
                 self.used.push(slot as u32);
             }
-            let area = c.area_m2.max(AREA_FLOOR_M2);
+            let area = c.area_m2.max(floor_m2);
             let g = c.gap_weight_m(delta_m);
             let w = area * g;
             cell.wgn += c.n * (w * g);

@@ -116,7 +116,7 @@ impl CollisionBackend for ReferenceBackend {
             if let Some(pc) = closest
                 && pc.distance < written
             {
-                frames.emit_closest_approach(&touching_if_crossing(pc), out)?;
+                frames.emit_closest_approach(&touching_if_crossing(pc), delta, out)?;
             }
         }
         Ok(stats)

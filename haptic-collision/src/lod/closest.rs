@@ -37,13 +37,17 @@ use haptic_core::{ContactSet, Pose, QueryStats, Real, Vec3};
 use super::build::Hierarchy;
 use super::query::{Frames, Nearest, PlacedNode, Scratch, culled, descend, place_piece, plane_gap};
 use super::{LodError, MAX_PIECE_VERTICES};
-use crate::compact::AREA_FLOOR_M2;
+use crate::compact::area_floor_m2;
 use crate::geometry::{self, PairContact, closest_points_below, convex_polygon_pair};
 
-/// The area a closest-approach contact stands for (m²): the compaction's floor, 10⁻¹⁸ m², so
-/// that it weighs nothing beside the regions; not 0, which the clustering reads as "this back-end
-/// does not measure areas" and then weighs every contact of the call alike.
-pub(crate) const CLOSEST_APPROACH_AREA_M2: Real = AREA_FLOOR_M2;
+/// The area a closest-approach contact stands for at the penalty's reach `delta_m` (m²): the
+/// compaction's floor, `10⁻¹² δ²`, so that it weighs nothing beside the regions in any units;
+/// not 0, which the clustering reads as "this back-end does not measure areas" and then weighs
+/// every contact of the call alike.
+#[inline]
+pub(crate) fn closest_approach_area_m2(delta_m: Real) -> Real {
+    area_floor_m2(delta_m)
+}
 
 /// A pair's closest approach as a contact: where the polygons cross, touching (depth 0) at the
 /// middle of their separating-axis contact, since the regions carry the force and the
@@ -66,7 +70,7 @@ pub(crate) fn touching_if_crossing(pc: PairContact) -> PairContact {
 /// than written (`scratch.apart`, emptied, and each obstacle's `found_pair`), one contact per
 /// obstacle where it is within `δ` and closer than every contact written against that obstacle:
 /// the exact distance between the tool's and the obstacle's triangles (0 where they cross),
-/// whatever the threshold. The contact stands for [`CLOSEST_APPROACH_AREA_M2`] with no
+/// whatever the threshold. The contact stands for [`closest_approach_area_m2`] with no
 /// stiffness share: it reports the distance without adding to the force, integrated or
 /// clustered.
 ///
@@ -119,7 +123,7 @@ pub(crate) fn closest_approaches(
             search.among_triangles(run, found, limit, stack, stats)
         };
         if let Some(pc) = closest {
-            frames[o].emit_closest_approach(&pc, out)?;
+            frames[o].emit_closest_approach(&pc, delta_m, out)?;
             found.written(pc.distance);
         }
     }

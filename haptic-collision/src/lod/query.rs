@@ -72,7 +72,7 @@ impl Frames {
     }
 
     /// Writes a closest approach (obstacle frame) as a world-frame contact of
-    /// [`super::closest::CLOSEST_APPROACH_AREA_M2`] and no stiffness share: it reports the
+    /// [`super::closest::closest_approach_area_m2`] at `delta_m` and no stiffness share: it reports the
     /// distance and pushes nothing, alone in its call too (`closest.rs`).
     ///
     /// # Errors
@@ -81,13 +81,14 @@ impl Frames {
     pub fn emit_closest_approach(
         &self,
         pc: &PairContact,
+        delta_m: Real,
         out: &mut ContactSet,
     ) -> Result<(), LodError> {
         let c = self.contact(
             pc,
             NO_FEATURE,
             NO_FEATURE,
-            super::closest::CLOSEST_APPROACH_AREA_M2,
+            super::closest::closest_approach_area_m2(delta_m),
         )?;
         out.push(c.with_stiffness_share(0.0));
         Ok(())

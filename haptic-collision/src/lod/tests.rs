@@ -237,11 +237,11 @@ proptest! {
         }
         // Each contact stands for at most its tool triangle (the part over the obstacle
         // triangle), the closest approach for next to nothing (but not 0: see
-        // `CLOSEST_APPROACH_AREA_M2`) and pushes nothing; the regions push with the whole
+        // `closest_approach_area_m2`) and pushes nothing; the regions push with the whole
         // stiffness.
         for c in a.iter() {
             if c.feature_a == NO_FEATURE {
-                prop_assert_eq!(c.area_m2, crate::compact::AREA_FLOOR_M2);
+                prop_assert_eq!(c.area_m2, crate::compact::area_floor_m2(params.delta_m));
                 prop_assert_eq!(c.stiffness_share, 0.0);
                 continue;
             }
@@ -1283,7 +1283,7 @@ fn a_closest_approach_is_never_nearer_than_the_surfaces() {
         lod.query(&pose, &QueryParams::new(delta, 0.2).unwrap(), &mut coarse)
             .unwrap();
         for c in coarse.iter() {
-            if c.area_m2 == crate::compact::AREA_FLOOR_M2 {
+            if c.area_m2 == crate::compact::area_floor_m2(delta) {
                 reported += 1;
                 assert!(
                     -c.depth_m >= nearest - 1e-9,
@@ -1974,4 +1974,125 @@ fn feet_over_a_bowls_opening_weigh_only_the_rim_under_them() {
     ];
     let errors = errors_at_bench_poses(&tool, bowl(), delta, &poses);
     assert!(errors.iter().all(|&e| e <= 0.05), "{errors:?}");
+}
+
+/// `mesh` with every vertex multiplied by `scale` (the same triangles).
+fn scaled(mesh: &TriMesh, scale: Real) -> TriMesh {
+    super::testmesh::mesh(
+        mesh.vertices().iter().map(|v| v * scale).collect(),
+        mesh.triangles().to_vec(),
+    )
+}
+
+/// A scene given in other units (a user's millimetres, inches, kilometres) is the same query:
+/// nothing in the build, the walk, the regions or the compaction may depend on the size of a
+/// metre. Scaled by a power of two, every length in the computation scales exactly, so the walk
+/// must visit the same node pairs and write the same contacts, scaled (to roundoff: the closest
+/// approach's contact keeps its fixed, negligible area). Scaled by a thousandth or by 25.4 mm,
+/// roundoff may break a tie differently in the build, but the all-pairs penalty does not
+/// depend on the hierarchy: at threshold 0 it must agree to roundoff, and so must the smallest
+/// separation.
+#[test]
+fn a_scene_in_other_units_gives_the_same_query() {
+    let at = |p: Vec3, axis: Vec3| Pose {
+        position: p,
+        orientation: UnitQuaternion::from_scaled_axis(axis),
+    };
+    let scenes = [
+        // A box resting tilted on a box, a layered peg in a tube, a bumpy ball on a bowl's rim.
+        (
+            cuboid(Vec3::new(0.005, 0.005, 0.005)),
+            grid_box(Vec3::new(0.01, 0.01, 0.005), 4),
+            at(Vec3::new(0.003, 0.002, 0.0104), Vec3::new(0.05, -0.03, 0.2)),
+            0.0005,
+        ),
+        (
+            super::testmesh::layered_cylinder(0.004, 0.006, 40, 6),
+            tube(0.00405, 0.010, 40, 10),
+            at(Vec3::new(3e-5, 1e-5, 0.002), Vec3::new(0.004, 0.0, 0.0)),
+            0.0005,
+        ),
+        (
+            bumpy_sphere(2, 0.008, 0.05, 3),
+            bowl(),
+            at(Vec3::new(0.028, 0.0, 0.0085), Vec3::new(0.3, 0.1, 0.0)),
+            0.001,
+        ),
+    ];
+    let query = |tool: &TriMesh, obstacle: &TriMesh, pose: &Pose, params: &QueryParams, cap| {
+        let mut backend = LodBackend::new(tool, &[(obstacle.clone(), Pose::identity())])
+            .unwrap()
+            .with_max_contacts(cap);
+        let mut out = ContactSet::new();
+        let stats = backend.query(pose, params, &mut out).unwrap();
+        (out, stats)
+    };
+    let scaled_pose = |pose: &Pose, s: Real| Pose {
+        position: pose.position * s,
+        orientation: pose.orientation,
+    };
+    for (k, (tool, obstacle, pose, delta)) in scenes.iter().enumerate() {
+        for threshold in [0.0, 0.004, 0.025] {
+            let params = QueryParams::new(*delta, threshold).unwrap();
+            let (base, base_stats) = query(tool, obstacle, pose, &params, Some(256));
+            assert!(!base.is_empty(), "scene {k} has no contact");
+            for s in [Real::powi(2.0, -10), 0.125, Real::powi(2.0, 7)] {
+                let params = QueryParams::new(delta * s, threshold).unwrap();
+                let (got, stats) = query(
+                    &scaled(tool, s),
+                    &scaled(obstacle, s),
+                    &scaled_pose(pose, s),
+                    &params,
+                    Some(256),
+                );
+                let what = format!("scene {k}, threshold {threshold}, scale {s}");
+                assert_eq!(
+                    stats.node_pairs_tested, base_stats.node_pairs_tested,
+                    "{what}"
+                );
+                assert_eq!(stats.raw_contacts, base_stats.raw_contacts, "{what}");
+                assert_eq!(got.len(), base.len(), "{what}");
+                let near = |a: Real, b: Real, size: Real| (a - b).abs() <= 1e-12 * size;
+                for (c, c0) in got.iter().zip(base.iter()) {
+                    assert!(
+                        near(c.depth_m / s, c0.depth_m, *delta),
+                        "{what}: {c:?} / {c0:?}"
+                    );
+                    assert!((c.n - c0.n).norm() <= 1e-12, "{what}: {c:?} / {c0:?}");
+                    assert!((c.p_a / s - c0.p_a).norm() <= 1e-12 * 0.05, "{what}");
+                    assert!((c.r_a / s - c0.r_a).norm() <= 1e-12 * 0.05, "{what}");
+                    if c0.stiffness_share > 0.0 {
+                        assert!(near(c.area_m2 / (s * s), c0.area_m2, c0.area_m2), "{what}");
+                    }
+                }
+            }
+        }
+        // Other units, and the all-pairs penalty at threshold 0.
+        let params = QueryParams::new(*delta, 0.0).unwrap();
+        let (base, _) = query(tool, obstacle, pose, &params, None);
+        let w0 = integrated_penalty(&base, *delta, &pose.position, 0.05);
+        let size = w0.iter().map(|x| x * x).sum::<Real>().sqrt();
+        let nearest = |set: &ContactSet| set.iter().map(|c| -c.depth_m).fold(Real::MAX, Real::min);
+        for s in [1e-3, 25.4e-3, 1e3] {
+            let params = QueryParams::new(delta * s, 0.0).unwrap();
+            let p = scaled_pose(pose, s);
+            let (got, _) = query(&scaled(tool, s), &scaled(obstacle, s), &p, &params, None);
+            let w = integrated_penalty(&got, delta * s, &p.position, 0.05 * s);
+            // Force `Σ a g n` scales as `s³`; torque over a lever `s` as well.
+            let change = w
+                .iter()
+                .zip(&w0)
+                .map(|(x, x0)| (x / (s * s * s) - x0).powi(2))
+                .sum::<Real>()
+                .sqrt();
+            assert!(
+                change <= 1e-9 * size,
+                "scene {k}, scale {s}: {w:?} / {w0:?}"
+            );
+            assert!(
+                (nearest(&got) / s - nearest(&base)).abs() <= 1e-9 * delta,
+                "scene {k}, scale {s}"
+            );
+        }
+    }
 }
