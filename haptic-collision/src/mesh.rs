@@ -4,8 +4,9 @@
 
 mod load;
 mod mass;
+mod winding;
 
-pub use load::{LoadOptions, LoadReport, MeshFormat};
+pub use load::{LoadOptions, LoadReport, MeshFormat, WindingPolicy};
 pub use mass::{MassProperties, OPEN_MESH_VOLUME_TOL};
 
 use haptic_core::{Real, Vec3};
@@ -77,6 +78,25 @@ pub enum MeshError {
     UnsupportedFormat {
         /// The extension found (empty if none).
         extension: String,
+    },
+    /// A connected part of the mesh cannot be wound consistently (a Möbius band): see
+    /// [`TriMesh::with_consistent_winding`].
+    #[error(
+        "mesh cannot be wound consistently: going round its part with triangle {triangle} turns that triangle against itself"
+    )]
+    NonOrientable {
+        /// A triangle of the part.
+        triangle: usize,
+    },
+    /// Triangles that share an edge are wound against each other, so some have their inside
+    /// and outside swapped (see [`TriMesh::winding_conflicts`]); [`LoadOptions`] repairs them
+    /// by default, [`TriMesh::with_consistent_winding`] on demand.
+    #[error(
+        "{conflicts} edges are shared by triangles wound against each other (a triangle turned inside out makes three); repair with TriMesh::with_consistent_winding or LoadOptions::winding"
+    )]
+    InconsistentWinding {
+        /// Shared edges along which both triangles run the same way.
+        conflicts: usize,
     },
     /// A parameter (unit scale, density) is out of range.
     #[error("{what} = {value} is out of range: {expected}")]

@@ -45,13 +45,16 @@ impl ReferenceBackend {
     /// The tool (body frame) and static obstacles (placed at their poses).
     ///
     /// # Errors
-    /// [`LodError::NonFinitePose`] for a non-finite obstacle pose.
+    /// [`LodError::NonFinitePose`] for a non-finite obstacle pose;
+    /// [`LodError::InconsistentWinding`] for a mesh whose triangles are wound against their
+    /// neighbours.
     pub fn new(tool: &TriMesh, obstacles: &[(TriMesh, Pose)]) -> Result<Self, LodError> {
         if obstacles.iter().any(|(_, p)| !p.is_finite()) {
             return Err(LodError::NonFinitePose {
                 what: "obstacle pose",
             });
         }
+        crate::lod::check_winding(tool, obstacles)?;
         Ok(Self {
             tool: Soup::of(tool),
             radius_m: tool

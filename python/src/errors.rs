@@ -190,12 +190,18 @@ pub fn from_mesh(e: &haptic_collision::MeshError) -> PyErr {
         M::NonFiniteVertex { .. } => "non_finite_vertex",
         M::IndexOutOfRange { .. } => "index_out_of_range",
         M::DegenerateTriangles { .. } => "degenerate_triangles",
+        M::NonOrientable { .. } => "non_orientable",
+        M::InconsistentWinding { .. } => "inconsistent_winding",
         M::Io { .. } => "io",
         _ => "invalid_mesh",
     };
     let field = match e {
         M::NonFiniteVertex { .. } => Some("vertices"),
-        M::Empty | M::IndexOutOfRange { .. } | M::DegenerateTriangles { .. } => Some("triangles"),
+        M::Empty
+        | M::IndexOutOfRange { .. }
+        | M::DegenerateTriangles { .. }
+        | M::NonOrientable { .. }
+        | M::InconsistentWinding { .. } => Some("triangles"),
         // Unreadable, of an unknown format or unparsable: the file.
         _ => Some("path"),
     };

@@ -20,6 +20,7 @@ use crate::errors::{from_mesh, input};
 pub struct PyMesh {
     pub(crate) mesh: Arc<TriMesh>,
     dropped: usize,
+    rewound: usize,
 }
 
 impl PyMesh {
@@ -27,6 +28,7 @@ impl PyMesh {
         Self {
             mesh: Arc::new(mesh),
             dropped,
+            rewound: 0,
         }
     }
 }
@@ -65,7 +67,10 @@ impl PyMesh {
         let (mesh, report) = py
             .detach(|| TriMesh::load(&path, &LoadOptions::with_scale(scale)))
             .map_err(|e| from_mesh(&e))?;
-        Ok(Self::wrap(mesh, report.degenerate_dropped))
+        Ok(Self {
+            rewound: report.triangles_rewound,
+            ..Self::wrap(mesh, report.degenerate_dropped)
+        })
     }
 
     /// Vertex positions (m), `(n, 3)` float64 (a copy).
@@ -100,6 +105,33 @@ impl PyMesh {
     #[getter]
     fn dropped_degenerate(&self) -> usize {
         self.dropped
+    }
+
+    /// Triangles turned to agree with their neighbours' winding when the mesh was loaded or
+    /// repaired (`with_consistent_winding`).
+    #[getter]
+    fn rewound_triangles(&self) -> usize {
+        self.rewound
+    }
+
+    /// Edges shared by two triangles wound against each other (0 for a consistent mesh; a
+    /// triangle turned inside out makes three).
+    #[getter]
+    fn winding_conflicts(&self) -> usize {
+        self.mesh.winding_conflicts()
+    }
+
+    /// A copy with every connected part wound consistently, each the way the larger area of
+    /// its triangles is; `rewound_triangles` says how many were turned.
+    fn with_consistent_winding(&self) -> PyResult<Self> {
+        let (mesh, rewound) = self
+            .mesh
+            .with_consistent_winding()
+            .map_err(|e| from_mesh(&e))?;
+        Ok(Self {
+            rewound,
+            ..Self::wrap(mesh, self.dropped)
+        })
     }
 
     /// The axis-aligned bounding box, `(lo (3,), hi (3,))` (m).

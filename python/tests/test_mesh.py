@@ -335,3 +335,35 @@ def test_non_finite_offset_is_an_input_error(mesh_paths):
     with pytest.raises(haptic.InputError) as e:
         mesh.translated([0.0, 1.0])
     assert e.value.field == "offset"
+
+
+def test_a_triangle_wound_against_its_neighbours_is_found_turned_back_and_refused(make_box):
+    v, t = make_box([0, 0, 0], [0.1, 0.1, 0.1])
+    good = haptic.Mesh(v, t)
+    assert good.winding_conflicts == 0 and good.rewound_triangles == 0
+    bad_t = t.copy()
+    bad_t[4] = bad_t[4][[0, 2, 1]]
+    bad = haptic.Mesh(v, bad_t)
+    # Kept as given, and counted: its three edges run the same way as its neighbours'.
+    assert np.array_equal(bad.triangles, bad_t)
+    assert bad.winding_conflicts == 3
+    # The back-ends refuse it: its contacts would push the wrong way.
+    tool = haptic.Mesh(*make_box([-0.01, -0.01, -0.01], [0.01, 0.01, 0.01]))
+    with pytest.raises(haptic.CollisionError, match="wound against each other"):
+        haptic.LodBackend(tool, [(bad, np.array([0, 0, 0, 1, 0, 0, 0.0]))])
+    repaired = bad.with_consistent_winding()
+    assert repaired.rewound_triangles == 1 and repaired.winding_conflicts == 0
+    assert np.array_equal(repaired.triangles, t)
+    haptic.LodBackend(tool, [(repaired, np.array([0, 0, 0, 1, 0, 0, 0.0]))])
+
+
+def test_loading_turns_triangles_wound_against_their_neighbours(tmp_path, make_box):
+    v, t = make_box([0, 0, 0], [1, 1, 1])
+    t = t.copy()
+    t[7] = t[7][[0, 2, 1]]
+    lines = [f"v {x} {y} {z}" for x, y, z in v] + [f"f {a + 1} {b + 1} {c + 1}" for a, b, c in t]
+    path = tmp_path / "box_one_turned.obj"
+    path.write_text("\n".join(lines) + "\n")
+    mesh = haptic.Mesh.load(path)
+    assert mesh.rewound_triangles == 1 and mesh.winding_conflicts == 0
+    assert mesh.mass_properties(1000.0).volume_m3 == pytest.approx(1.0, rel=1e-12)

@@ -115,10 +115,39 @@ pub enum LodError {
         /// Number of triangles.
         triangles: usize,
     },
+    /// A mesh has triangles wound against their neighbours, whose inside and outside are
+    /// swapped: the contacts on them would push the wrong way. [`TriMesh::load`] turns them by
+    /// default ([`crate::LoadOptions::winding`]); [`TriMesh::with_consistent_winding`] does so on
+    /// demand.
+    #[error("the {} mesh has {conflicts} edges shared by triangles wound against each other (a triangle turned inside out makes three): repair it with TriMesh::with_consistent_winding", match obstacle { None => "tool".to_string(), Some(i) => format!("obstacle {i}") })]
+    InconsistentWinding {
+        /// Which mesh: `None` for the tool, else the obstacle's index.
+        obstacle: Option<usize>,
+        /// Shared edges along which both triangles run the same way
+        /// ([`TriMesh::winding_conflicts`]).
+        conflicts: usize,
+    },
     /// A core check failed: query parameters out of range ([`QueryParams::validate`]), or a
     /// contact that could not be formed (non-finite geometry).
     #[error(transparent)]
     Core(#[from] CoreError),
+}
+
+/// [`LodError::InconsistentWinding`] for the first of the tool and the obstacles whose
+/// triangles are wound against their neighbours (`mesh/winding.rs`).
+pub(crate) fn check_winding(tool: &TriMesh, obstacles: &[(TriMesh, Pose)]) -> Result<(), LodError> {
+    let meshes = std::iter::once((None, tool))
+        .chain(obstacles.iter().enumerate().map(|(i, (m, _))| (Some(i), m)));
+    for (obstacle, mesh) in meshes {
+        let conflicts = mesh.winding_conflicts();
+        if conflicts > 0 {
+            return Err(LodError::InconsistentWinding {
+                obstacle,
+                conflicts,
+            });
+        }
+    }
+    Ok(())
 }
 
 /// Build figures of one mesh's hierarchy.
@@ -176,7 +205,8 @@ impl LodBackend {
     ///
     /// # Errors
     /// [`LodError::NonFinitePose`] for a non-finite obstacle pose, [`LodError::TooManyTriangles`]
-    /// for a mesh beyond 2³⁰ triangles.
+    /// for a mesh beyond 2³⁰ triangles, [`LodError::InconsistentWinding`] for a mesh whose
+    /// triangles are wound against their neighbours.
     pub fn new(tool: &TriMesh, obstacles: &[(TriMesh, Pose)]) -> Result<Self, LodError> {
         let start = Instant::now();
         Self::check(tool, obstacles)?;
@@ -257,7 +287,7 @@ impl LodBackend {
                 what: "obstacle pose",
             });
         }
-        Ok(())
+        check_winding(tool, obstacles)
     }
 
     /// The back-end of built (or loaded) hierarchies, with its query scratch reserved.

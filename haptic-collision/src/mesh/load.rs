@@ -49,15 +49,32 @@ pub struct LoadOptions {
     pub recentre: bool,
     /// What to do with degenerate triangles.
     pub degenerate: DegeneratePolicy,
+    /// What to do with triangles wound against their neighbours.
+    pub winding: WindingPolicy,
+}
+
+/// What to do with triangles wound against their neighbours (`mesh/winding.rs`): their inside
+/// and outside are swapped, and the contacts on them push the wrong way.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum WindingPolicy {
+    /// Turn them, part by part, to the winding of the larger area of the part
+    /// ([`TriMesh::with_consistent_winding`]), and report how many
+    /// ([`LoadReport::triangles_rewound`]).
+    #[default]
+    Repair,
+    /// Reject the mesh with [`MeshError::InconsistentWinding`].
+    Reject,
 }
 
 impl Default for LoadOptions {
-    /// Scale 1 (metres), no recentring, degenerate triangles dropped.
+    /// Scale 1 (metres), no recentring, degenerate triangles dropped, triangles wound against
+    /// their neighbours turned.
     fn default() -> Self {
         Self {
             scale_m_per_unit: 1.0,
             recentre: false,
             degenerate: DegeneratePolicy::Drop,
+            winding: WindingPolicy::Repair,
         }
     }
 }
@@ -85,6 +102,8 @@ pub struct LoadReport {
     pub degenerate_dropped: usize,
     /// Polygons with more than three corners that were split into triangles (OBJ, PLY).
     pub polygons_triangulated: usize,
+    /// Triangles turned to agree with their neighbours' winding ([`WindingPolicy::Repair`]).
+    pub triangles_rewound: usize,
     /// The translation (m) that was added to every vertex by recentring (zero without it).
     pub translation_m: Vec3,
 }
@@ -121,7 +140,9 @@ impl TriMesh {
     /// [`MeshError::Malformed`] for content that does not parse (including a PLY or OBJ face
     /// with fewer than 3 corners); [`MeshError::IndexOutOfRange`] for a face corner that names
     /// no vertex; and the validation errors of [`TriMesh::new`] ([`MeshError::Empty`],
-    /// [`MeshError::NonFiniteVertex`], [`MeshError::DegenerateTriangles`]).
+    /// [`MeshError::NonFiniteVertex`], [`MeshError::DegenerateTriangles`]); with
+    /// [`WindingPolicy::Repair`], [`MeshError::NonOrientable`] for a part that cannot be wound
+    /// consistently, and with [`WindingPolicy::Reject`], [`MeshError::InconsistentWinding`].
     pub fn from_bytes(
         bytes: &[u8],
         format: MeshFormat,
@@ -152,6 +173,20 @@ impl TriMesh {
         let s = options.scale_m_per_unit;
         let vertices: Vec<Vec3> = raw.vertices.iter().map(|v| v * s).collect();
         let (mut mesh, degenerate_dropped) = Self::new(vertices, triangles, options.degenerate)?;
+        let mut triangles_rewound = 0;
+        match options.winding {
+            WindingPolicy::Repair => {
+                if mesh.winding_conflicts() > 0 {
+                    (mesh, triangles_rewound) = mesh.with_consistent_winding()?;
+                }
+            }
+            WindingPolicy::Reject => {
+                let conflicts = mesh.winding_conflicts();
+                if conflicts > 0 {
+                    return Err(MeshError::InconsistentWinding { conflicts });
+                }
+            }
+        }
         let mut translation_m = Vec3::zeros();
         if options.recentre {
             let (lo, hi) = mesh.bounding_box();
@@ -164,6 +199,7 @@ impl TriMesh {
             triangles: mesh.triangles().len(),
             degenerate_dropped,
             polygons_triangulated: raw.polygons_triangulated,
+            triangles_rewound,
             translation_m,
         };
         Ok((mesh, report))

@@ -157,7 +157,9 @@ class Mesh:
 
     ``Mesh(vertices, triangles)`` builds one from arrays: ``vertices`` ``(n, 3)`` float,
     ``triangles`` ``(m, 3)`` non-negative integer vertex indices. Degenerate (zero-area or
-    repeated-vertex) triangles are dropped and counted in :attr:`dropped_degenerate`.
+    repeated-vertex) triangles are dropped and counted in :attr:`dropped_degenerate`. Triangles
+    wound against their neighbours are kept as given (:attr:`winding_conflicts` counts them;
+    :meth:`with_consistent_winding` turns them); the back-ends refuse such a mesh.
 
     Raises:
         InputError: a wrong shape or dtype, an empty array, a NaN or infinite vertex
@@ -170,7 +172,9 @@ class Mesh:
     def load(path: str | os.PathLike[str], scale: float = 1.0) -> Mesh:
         """Loads an STL (binary or ASCII), OBJ or PLY file, by its extension; vertices are
         multiplied by ``scale`` (metres per file unit: ``1e-3`` for millimetres). STL corners
-        that are exactly equal become one vertex. The GIL is released while reading.
+        that are exactly equal become one vertex; triangles wound against their neighbours are
+        turned to agree with them (counted in :attr:`rewound_triangles`). The GIL is released
+        while reading.
 
         Raises:
             MeshError: a missing or unreadable file (``.kind == "io"``), an unsupported
@@ -192,6 +196,23 @@ class Mesh:
     @property
     def dropped_degenerate(self) -> int:
         """How many degenerate triangles were dropped when the mesh was made."""
+    @property
+    def rewound_triangles(self) -> int:
+        """How many triangles were turned to agree with their neighbours' winding when the
+        mesh was loaded, or by :meth:`with_consistent_winding`."""
+    @property
+    def winding_conflicts(self) -> int:
+        """Edges shared by two triangles wound against each other: 0 for a consistent mesh, 3
+        for one triangle turned inside out. A triangle's winding says which side is outside,
+        so the contacts on a turned one would push the wrong way."""
+    def with_consistent_winding(self) -> Mesh:
+        """A copy with every connected part wound consistently, each the way the larger area
+        of its triangles is (a part inside out throughout is left so).
+
+        Raises:
+            MeshError: a part that cannot be wound consistently (a Möbius band;
+                ``.kind == "non_orientable"``).
+        """
     def mass_properties(self, density_kg_per_m3: float) -> MassProperties:
         """Volume, mass, centre of mass and inertia of the solid the mesh bounds, filled with a
         uniform density (kg/m³).
