@@ -226,7 +226,10 @@ impl LodBackend {
     /// The back-end of hierarchies already built ([`Hierarchy::build`]) or read back
     /// ([`Hierarchy::read_from`]): the tool's (its body frame) and each static obstacle's with
     /// its pose in the world. For an application that keeps hierarchies its own way (in an asset
-    /// bundle, say) rather than in [`LodBackend::with_cache`]'s directory.
+    /// bundle, say) rather than in [`LodBackend::with_cache`]'s directory. The meshes they were
+    /// built from are not checked here, as [`LodBackend::new`] checks them: build hierarchies
+    /// of meshes wound consistently ([`TriMesh::winding_conflicts`] 0, as [`TriMesh::load`]
+    /// makes them).
     ///
     /// ```
     /// use haptic_collision::{LodBackend, TriMesh, DegeneratePolicy, lod::Hierarchy};
