@@ -38,8 +38,8 @@ mod slab;
 
 pub use lod::{DEFAULT_MAX_CONTACTS, LodBackend, StoppingRule, UnknownStoppingRule};
 pub use mesh::{
-    DegeneratePolicy, LoadOptions, LoadReport, MassProperties, MeshError, MeshFormat, TriMesh,
-    WindingPolicy,
+    CoincidentTriangles, DegeneratePolicy, LoadOptions, LoadReport, MassProperties, MeshError,
+    MeshFormat, TriMesh, WindingPolicy,
 };
 #[cfg(feature = "parry")]
 pub use parry::{ParryBackend, ParryError, ParryOptions};

@@ -2,10 +2,12 @@
 //! OBJ and PLY files ([`TriMesh::load`]), and the mass properties of the solid a closed mesh
 //! bounds ([`TriMesh::mass_properties`]).
 
+mod coincident;
 mod load;
 mod mass;
 mod winding;
 
+pub use coincident::CoincidentTriangles;
 pub use load::{LoadOptions, LoadReport, MeshFormat, WindingPolicy};
 pub use mass::{MassProperties, OPEN_MESH_VOLUME_TOL};
 

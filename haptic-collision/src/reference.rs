@@ -47,7 +47,8 @@ impl ReferenceBackend {
     /// # Errors
     /// [`LodError::NonFinitePose`] for a non-finite obstacle pose;
     /// [`LodError::InconsistentWinding`] for a mesh whose triangles are wound against their
-    /// neighbours.
+    /// neighbours, [`LodError::CoincidentTriangles`] for one with triangles on the same
+    /// vertices as another.
     pub fn new(tool: &TriMesh, obstacles: &[(TriMesh, Pose)]) -> Result<Self, LodError> {
         if obstacles.iter().any(|(_, p)| !p.is_finite()) {
             return Err(LodError::NonFinitePose {

@@ -21,6 +21,7 @@ pub struct PyMesh {
     pub(crate) mesh: Arc<TriMesh>,
     dropped: usize,
     rewound: usize,
+    duplicates: usize,
 }
 
 impl PyMesh {
@@ -29,6 +30,7 @@ impl PyMesh {
             mesh: Arc::new(mesh),
             dropped,
             rewound: 0,
+            duplicates: 0,
         }
     }
 }
@@ -69,6 +71,7 @@ impl PyMesh {
             .map_err(|e| from_mesh(&e))?;
         Ok(Self {
             rewound: report.triangles_rewound,
+            duplicates: report.duplicates_dropped,
             ..Self::wrap(mesh, report.degenerate_dropped)
         })
     }
@@ -105,6 +108,12 @@ impl PyMesh {
     #[getter]
     fn dropped_degenerate(&self) -> usize {
         self.dropped
+    }
+
+    /// Triangles dropped at load for repeating an earlier one (same vertices, same winding).
+    #[getter]
+    fn dropped_duplicates(&self) -> usize {
+        self.duplicates
     }
 
     /// Triangles turned to agree with their neighbours' winding when the mesh was loaded or

@@ -366,4 +366,9 @@ def test_loading_turns_triangles_wound_against_their_neighbours(tmp_path, make_b
     path.write_text("\n".join(lines) + "\n")
     mesh = haptic.Mesh.load(path)
     assert mesh.rewound_triangles == 1 and mesh.winding_conflicts == 0
+    assert mesh.dropped_duplicates == 0
     assert mesh.mass_properties(1000.0).volume_m3 == pytest.approx(1.0, rel=1e-12)
+    # A triangle listed twice (rotated) is dropped once: it would push twice.
+    path.write_text("\n".join(lines + [f"f {t[2][1] + 1} {t[2][2] + 1} {t[2][0] + 1}"]) + "\n")
+    again = haptic.Mesh.load(path)
+    assert again.dropped_duplicates == 1 and again.triangle_count == 12

@@ -127,6 +127,19 @@ pub enum LodError {
         /// ([`TriMesh::winding_conflicts`]).
         conflicts: usize,
     },
+    /// A mesh has triangles on the same three vertices as another: a repeat, which pushes
+    /// twice, or one wound the other way, a sheet with no inside whose two sides pull the tool
+    /// through ([`TriMesh::coincident_triangles`]). [`TriMesh::load`] drops repeats; a thin part
+    /// must be modelled with a thickness.
+    #[error("the {} mesh has {duplicates} repeated triangles and {two_sided} pairs on the same vertices wound opposite ways (a sheet with no inside): drop repeats with TriMesh::without_duplicates, give a thin part a thickness", match obstacle { None => "tool".to_string(), Some(i) => format!("obstacle {i}") })]
+    CoincidentTriangles {
+        /// Which mesh: `None` for the tool, else the obstacle's index.
+        obstacle: Option<usize>,
+        /// Triangles wound the same way as an earlier one on the same vertices.
+        duplicates: usize,
+        /// Pairs on the same vertices wound opposite ways.
+        two_sided: usize,
+    },
     /// A core check failed: query parameters out of range ([`QueryParams::validate`]), or a
     /// contact that could not be formed (non-finite geometry).
     #[error(transparent)]
@@ -134,7 +147,9 @@ pub enum LodError {
 }
 
 /// [`LodError::InconsistentWinding`] for the first of the tool and the obstacles whose
-/// triangles are wound against their neighbours (`mesh/winding.rs`).
+/// triangles are wound against their neighbours (`mesh/winding.rs`), and
+/// [`LodError::CoincidentTriangles`] for the first with triangles on the same vertices as
+/// another (`mesh/coincident.rs`).
 pub(crate) fn check_winding(tool: &TriMesh, obstacles: &[(TriMesh, Pose)]) -> Result<(), LodError> {
     let meshes = std::iter::once((None, tool))
         .chain(obstacles.iter().enumerate().map(|(i, (m, _))| (Some(i), m)));
@@ -144,6 +159,14 @@ pub(crate) fn check_winding(tool: &TriMesh, obstacles: &[(TriMesh, Pose)]) -> Re
             return Err(LodError::InconsistentWinding {
                 obstacle,
                 conflicts,
+            });
+        }
+        let coincident = mesh.coincident_triangles();
+        if !coincident.is_none() {
+            return Err(LodError::CoincidentTriangles {
+                obstacle,
+                duplicates: coincident.duplicates,
+                two_sided: coincident.two_sided,
             });
         }
     }
@@ -206,7 +229,8 @@ impl LodBackend {
     /// # Errors
     /// [`LodError::NonFinitePose`] for a non-finite obstacle pose, [`LodError::TooManyTriangles`]
     /// for a mesh beyond 2³⁰ triangles, [`LodError::InconsistentWinding`] for a mesh whose
-    /// triangles are wound against their neighbours.
+    /// triangles are wound against their neighbours, [`LodError::CoincidentTriangles`] for one
+    /// with triangles on the same vertices as another.
     pub fn new(tool: &TriMesh, obstacles: &[(TriMesh, Pose)]) -> Result<Self, LodError> {
         let start = Instant::now();
         Self::check(tool, obstacles)?;

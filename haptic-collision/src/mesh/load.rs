@@ -104,6 +104,9 @@ pub struct LoadReport {
     pub polygons_triangulated: usize,
     /// Triangles turned to agree with their neighbours' winding ([`WindingPolicy::Repair`]).
     pub triangles_rewound: usize,
+    /// Triangles dropped for repeating an earlier one, on the same vertices and wound the same
+    /// way ([`TriMesh::without_duplicates`]): each would have pushed twice.
+    pub duplicates_dropped: usize,
     /// The translation (m) that was added to every vertex by recentring (zero without it).
     pub translation_m: Vec3,
 }
@@ -112,7 +115,8 @@ impl TriMesh {
     /// Loads a mesh file; the format comes from the extension (`.stl`, `.obj`, `.ply`).
     ///
     /// Vertices are multiplied by `options.scale_m_per_unit`, then validated as in
-    /// [`TriMesh::new`], then recentred if asked.
+    /// [`TriMesh::new`]; triangles that repeat an earlier one are dropped, those wound against
+    /// their neighbours turned as `options.winding` says; then the mesh is recentred if asked.
     ///
     /// # Errors
     /// [`MeshError::UnsupportedFormat`], [`MeshError::Io`] for a missing or unreadable file, and
@@ -173,6 +177,10 @@ impl TriMesh {
         let s = options.scale_m_per_unit;
         let vertices: Vec<Vec3> = raw.vertices.iter().map(|v| v * s).collect();
         let (mut mesh, degenerate_dropped) = Self::new(vertices, triangles, options.degenerate)?;
+        let mut duplicates_dropped = 0;
+        if mesh.coincident_triangles().duplicates > 0 {
+            (mesh, duplicates_dropped) = mesh.without_duplicates();
+        }
         let mut triangles_rewound = 0;
         match options.winding {
             WindingPolicy::Repair => {
@@ -200,6 +208,7 @@ impl TriMesh {
             degenerate_dropped,
             polygons_triangulated: raw.polygons_triangulated,
             triangles_rewound,
+            duplicates_dropped,
             translation_m,
         };
         Ok((mesh, report))

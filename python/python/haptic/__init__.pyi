@@ -172,8 +172,9 @@ class Mesh:
     def load(path: str | os.PathLike[str], scale: float = 1.0) -> Mesh:
         """Loads an STL (binary or ASCII), OBJ or PLY file, by its extension; vertices are
         multiplied by ``scale`` (metres per file unit: ``1e-3`` for millimetres). STL corners
-        that are exactly equal become one vertex; triangles wound against their neighbours are
-        turned to agree with them (counted in :attr:`rewound_triangles`). The GIL is released
+        that are exactly equal become one vertex; triangles that repeat an earlier one are
+        dropped (:attr:`dropped_duplicates`) and those wound against their neighbours turned to
+        agree with them (:attr:`rewound_triangles`). The GIL is released
         while reading.
 
         Raises:
@@ -196,6 +197,10 @@ class Mesh:
     @property
     def dropped_degenerate(self) -> int:
         """How many degenerate triangles were dropped when the mesh was made."""
+    @property
+    def dropped_duplicates(self) -> int:
+        """How many triangles :meth:`load` dropped for repeating an earlier one (the same
+        vertices, wound the same way: each would have pushed twice)."""
     @property
     def rewound_triangles(self) -> int:
         """How many triangles were turned to agree with their neighbours' winding when the
