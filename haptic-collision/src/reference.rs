@@ -55,7 +55,7 @@ impl ReferenceBackend {
                 what: "obstacle pose",
             });
         }
-        crate::lod::check_winding(tool, obstacles)?;
+        crate::lod::check_surfaces(tool, obstacles)?;
         Ok(Self {
             tool: Soup::of(tool),
             radius_m: tool

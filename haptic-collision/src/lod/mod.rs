@@ -146,11 +146,14 @@ pub enum LodError {
     Core(#[from] CoreError),
 }
 
-/// [`LodError::InconsistentWinding`] for the first of the tool and the obstacles whose
-/// triangles are wound against their neighbours (`mesh/winding.rs`), and
-/// [`LodError::CoincidentTriangles`] for the first with triangles on the same vertices as
-/// another (`mesh/coincident.rs`).
-pub(crate) fn check_winding(tool: &TriMesh, obstacles: &[(TriMesh, Pose)]) -> Result<(), LodError> {
+/// Whether the tool's and the obstacles' surfaces say which side is outside:
+/// [`LodError::InconsistentWinding`] for the first mesh whose triangles are wound against their
+/// neighbours (`mesh/winding.rs`), [`LodError::CoincidentTriangles`] for the first with
+/// triangles on the same vertices as another (`mesh/coincident.rs`).
+pub(crate) fn check_surfaces(
+    tool: &TriMesh,
+    obstacles: &[(TriMesh, Pose)],
+) -> Result<(), LodError> {
     let meshes = std::iter::once((None, tool))
         .chain(obstacles.iter().enumerate().map(|(i, (m, _))| (Some(i), m)));
     for (obstacle, mesh) in meshes {
@@ -252,8 +255,8 @@ impl LodBackend {
     /// its pose in the world. For an application that keeps hierarchies its own way (in an asset
     /// bundle, say) rather than in [`LodBackend::with_cache`]'s directory. The meshes they were
     /// built from are not checked here, as [`LodBackend::new`] checks them: build hierarchies
-    /// of meshes wound consistently ([`TriMesh::winding_conflicts`] 0, as [`TriMesh::load`]
-    /// makes them).
+    /// of meshes wound consistently and with no triangle on the same vertices as another
+    /// ([`TriMesh::winding_conflicts`] 0, [`TriMesh::coincident_triangles`] none).
     ///
     /// ```
     /// use haptic_collision::{LodBackend, TriMesh, DegeneratePolicy, lod::Hierarchy};
@@ -314,7 +317,7 @@ impl LodBackend {
                 what: "obstacle pose",
             });
         }
-        check_winding(tool, obstacles)
+        check_surfaces(tool, obstacles)
     }
 
     /// The back-end of built (or loaded) hierarchies, with its query scratch reserved.
