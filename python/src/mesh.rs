@@ -139,6 +139,7 @@ impl PyMesh {
             .map_err(|e| from_mesh(&e))?;
         Ok(Self {
             rewound,
+            duplicates: self.duplicates,
             ..Self::wrap(mesh, self.dropped)
         })
     }
