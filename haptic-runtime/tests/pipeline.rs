@@ -392,6 +392,30 @@ fn a_scene_with_a_missing_mesh_names_the_field() {
     ));
 }
 
+/// What loading repaired in a scene's meshes comes back with the parts, by field: a box with
+/// one triangle turned inside out and one listed twice.
+#[test]
+fn a_scene_says_what_loading_repaired_in_its_meshes() {
+    let _one_at_a_time = common::one_at_a_time();
+    let obj = "v 0 0 0\nv 0.1 0 0\nv 0.1 0.1 0\nv 0 0.1 0\nv 0 0 0.1\nv 0.1 0 0.1\nv 0.1 0.1 0.1\n\
+               v 0 0.1 0.1\nf 1 3 2\nf 1 4 3\nf 5 6 7\nf 5 7 8\nf 1 2 6\nf 1 6 5\nf 2 3 7\n\
+               f 2 7 6\nf 3 4 8\nf 3 8 7\nf 4 1 5\nf 4 8 5\nf 6 7 5\n";
+    let path = std::env::temp_dir().join(format!("haptic-repaired-box-{}.obj", std::process::id()));
+    std::fs::write(&path, obj).unwrap();
+    let mut scene = spoon_cup();
+    scene.obstacles[0].mesh = path.clone();
+    scene.obstacles[0].scale_m_per_unit = 1.0;
+    let parts = scene.assemble().unwrap();
+    std::fs::remove_file(&path).unwrap();
+    let fields: Vec<&str> = parts.load_reports.iter().map(|(f, _)| f.as_str()).collect();
+    assert_eq!(fields, ["tool.mesh", "obstacles[0].mesh"]);
+    let (tool, box_) = (&parts.load_reports[0].1, &parts.load_reports[1].1);
+    assert_eq!((tool.triangles_rewound, tool.duplicates_dropped), (0, 0));
+    assert_eq!((box_.triangles_rewound, box_.duplicates_dropped), (1, 1));
+    assert_eq!(parts.obstacles[0].0.winding_conflicts(), 0);
+    assert_eq!(parts.obstacles[0].0.triangles().len(), 12);
+}
+
 /// A light box driven down into the floor faster than the contact thread can see it coming
 /// (0.2 m/s at 20 Hz: 10 mm per query, ten times δ) is found late, pressed in beyond what its
 /// model reaches. On tangents, blending that late model in bounces the box off the floor far

@@ -69,3 +69,27 @@ pub fn lod_backend(
     );
     Ok(backend)
 }
+
+/// What loading changed in a mesh, for a person to read (`None` when it changed nothing):
+/// degenerate and repeated triangles dropped, triangles wound against their neighbours turned.
+pub fn mesh_repairs(report: &haptic_collision::LoadReport) -> Option<String> {
+    let plural = |n: usize| if n == 1 { "" } else { "s" };
+    let mut parts = Vec::new();
+    if report.degenerate_dropped > 0 {
+        let n = report.degenerate_dropped;
+        parts.push(format!("{n} degenerate triangle{} dropped", plural(n)));
+    }
+    if report.duplicates_dropped > 0 {
+        let n = report.duplicates_dropped;
+        parts.push(format!("{n} repeated triangle{} dropped", plural(n)));
+    }
+    if report.triangles_rewound > 0 {
+        let n = report.triangles_rewound;
+        parts.push(format!(
+            "{n} triangle{} wound against {} neighbours turned back",
+            plural(n),
+            if n == 1 { "its" } else { "their" }
+        ));
+    }
+    (!parts.is_empty()).then(|| parts.join(", "))
+}

@@ -101,6 +101,11 @@ pub fn run(args: &DemoArgs) -> anyhow::Result<()> {
             .map(|(m, _)| m.triangles().len())
             .sum::<usize>(),
     );
+    for (field, report) in &parts.load_reports {
+        if let Some(repairs) = crate::common::mesh_repairs(report) {
+            println!("{field}: {repairs}");
+        }
+    }
     let kind: IntegratorKind = args.integrator.parse()?;
     let header = match &args.record {
         Some(_) => Some(crate::recording::header_for_scene(

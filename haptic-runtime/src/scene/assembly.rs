@@ -33,6 +33,10 @@ pub struct SceneParts {
     /// The stopping rule a multiresolution back-end built for the scene uses
     /// (`LodBackend::with_stopping_rule`; the scene's `contact.stopping_rule`).
     pub stopping_rule: haptic_collision::StoppingRule,
+    /// What loading did to each mesh the scene names, by its field (`tool.mesh`,
+    /// `obstacles[i].mesh`): degenerate and repeated triangles dropped, triangles wound against
+    /// their neighbours turned ([`haptic_collision::LoadReport`]). Empty for meshes given in code.
+    pub load_reports: Vec<(String, haptic_collision::LoadReport)>,
 }
 
 impl SceneParts {
@@ -64,15 +68,21 @@ impl Scene {
             scale_m_per_unit: scale,
             ..LoadOptions::default()
         };
-        let (mesh, _) = TriMesh::load(&self.tool.mesh, &options(self.tool.scale_m_per_unit))
+        let (mesh, report) = TriMesh::load(&self.tool.mesh, &options(self.tool.scale_m_per_unit))
             .map_err(|e| invalid("tool.mesh", e.to_string()))?;
+        let mut load_reports = vec![("tool.mesh".to_owned(), report)];
         let mut obstacles = Vec::with_capacity(self.obstacles.len());
         for (i, o) in self.obstacles.iter().enumerate() {
-            let (m, _) = TriMesh::load(&o.mesh, &options(o.scale_m_per_unit))
-                .map_err(|e| invalid(format!("obstacles[{i}].mesh"), e.to_string()))?;
+            let field = format!("obstacles[{i}].mesh");
+            let (m, report) = TriMesh::load(&o.mesh, &options(o.scale_m_per_unit))
+                .map_err(|e| invalid(field.clone(), e.to_string()))?;
             obstacles.push(m);
+            load_reports.push((field, report));
         }
-        self.assemble_meshes(mesh, obstacles)
+        Ok(SceneParts {
+            load_reports,
+            ..self.assemble_meshes(mesh, obstacles)?
+        })
     }
 
     /// [`Scene::assemble`] with the meshes given (in metres, already scaled) instead of read from
@@ -194,6 +204,7 @@ impl Scene {
             limits,
             waypoints,
             stopping_rule: self.contact.stopping_rule,
+            load_reports: Vec::new(),
         })
     }
 }

@@ -612,8 +612,11 @@ pub(super) fn load_scene(args: &super::CollisionArgs, n_poses: usize) -> anyhow:
             };
             let scale = args.scale.unwrap_or(1.0);
             let (tool, _) = load_tool(Path::new(a), scale)?;
-            let (obstacle, _) = TriMesh::load(b, &LoadOptions::with_scale(scale))
+            let (obstacle, report) = TriMesh::load(b, &LoadOptions::with_scale(scale))
                 .with_context(|| format!("loading {b}"))?;
+            if let Some(repairs) = crate::common::mesh_repairs(&report) {
+                println!("{b}: {repairs}");
+            }
             let (lo, hi) = tool.bounding_box();
             let delta = match args.delta_mm {
                 None => 0.01 * (hi - lo).norm(),
@@ -656,10 +659,13 @@ fn file_name(p: &Path) -> String {
 
 /// Loads a tool and moves its body frame to its centre of mass (or, if the mass properties are
 /// refused, e.g. for an open mesh, to its bounding-box centre). Returns the mesh in its body
-/// frame and where that origin was in the file's frame (m).
+/// frame and where that origin was in the file's frame (m); says what loading repaired, if anything.
 pub(super) fn load_tool(path: &Path, scale: Real) -> anyhow::Result<(TriMesh, Vec3)> {
-    let (mesh, _) = TriMesh::load(path, &LoadOptions::with_scale(scale))
+    let (mesh, report) = TriMesh::load(path, &LoadOptions::with_scale(scale))
         .with_context(|| format!("loading {}", path.display()))?;
+    if let Some(repairs) = crate::common::mesh_repairs(&report) {
+        println!("{}: {repairs}", path.display());
+    }
     let origin = match mesh.mass_properties(1000.0) {
         Ok(mp) => mp.centre_of_mass_m,
         Err(_) => {

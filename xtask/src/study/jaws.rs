@@ -67,6 +67,7 @@ fn parts() -> anyhow::Result<SceneParts> {
         waypoints: Vec::new(),
         // The paper's study: the paper's rule.
         stopping_rule: haptic_collision::StoppingRule::Deviation,
+        load_reports: Vec::new(),
     })
 }
 
