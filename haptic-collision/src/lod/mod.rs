@@ -497,6 +497,7 @@ impl CollisionBackend for LodBackend {
             &self.tool,
             &self.obstacles,
             params.delta_m,
+            epsilon_m,
             &mut self.scratch,
             out,
             &mut stats,

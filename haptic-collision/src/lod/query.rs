@@ -493,12 +493,19 @@ pub(crate) fn walk_from_stack(
                     <= walk.epsilon_m);
         if stop {
             let (da, db) = (tool.piece_ball_of(ia), obs.piece_ball_of(ib));
+            // (The surfaces lie within the deviations of the pieces' balls: no nearer than the
+            // distance found, they are not needed for the closest approach.)
+            let deviations_m = a.deviation + b.deviation;
             if beside(
                 &frames.point(&da.center),
                 da.radius_m,
                 db,
                 &b.normal,
-                nearest.found_m,
+                if nearest.found_m > 0.0 {
+                    nearest.found_m + deviations_m
+                } else {
+                    nearest.found_m
+                },
             ) {
                 continue;
             }
@@ -529,7 +536,7 @@ pub(crate) fn walk_from_stack(
             let (ma, mb, offset) = early.unwrap_or_else(|| offset(ia, ib));
             // The share of the pieces their surfaces cover, and how far the surfaces lie from
             // the pieces at most.
-            let (cover, deviations_m) = (ma.cover * mb.cover, a.deviation + b.deviation);
+            let cover = ma.cover * mb.cover;
             // Facing coarse pieces under the budgeted rule measure where they lie beside each
             // other's prisms (below).
             let facing = walk.refine && !(leaf_a && leaf_b) && cos_ab <= -FACING_COS;
@@ -638,9 +645,9 @@ pub(crate) fn walk_from_stack(
                 nearest.found(regions.nearest_m, ia, ib);
             }
             // Its closest approach may lie outside the region (beyond an edge of `b`), unless
-            // even its lower bound is beyond a distance already found (which only decreases, so
-            // `closest_approaches` would skip it).
-            if regions.nearest_m > 0.0 && gap < nearest.found_m {
+            // even its surfaces' lower bound is beyond a distance already found (which only
+            // decreases, so `closest_approaches` would skip it).
+            if regions.nearest_m > 0.0 && gap - deviations_m < nearest.found_m {
                 apart.push((gap, obstacle, ia, ib));
             }
             continue;
