@@ -25,8 +25,8 @@
 //!   `ε` nearer (its pieces' distance, no less than the nearest pieces' or the distance found,
 //!   less the two deviations): subtrees that cannot come `ε` nearer than the best are skipped.
 //!   The distance reported is within `ε` of the surfaces' smallest. The nearest pieces' pair
-//!   alone was up to two deviations off (1.01 ε and 1.13 ε in `threshold_error_is_bounded`'s
-//!   regressions, the deviation rule); every candidate searched exactly cost the gears at
+//!   alone was up to two deviations off (1.01 ε in a regression of
+//!   `threshold_error_is_bounded`, the deviation rule); every candidate searched exactly cost the gears at
 //!   0.4 % a fifth more node pairs and twice the time; this costs 10 % more node pairs there on
 //!   the fine gears, 0.3 % on the jaws at 2.5 %.
 //!
