@@ -567,15 +567,30 @@ pub(crate) fn walk_from_stack(
             }
             // Facing coarse pieces with no region, beyond a wall of the obstacle piece's prism
             // by less than their deviations: the surfaces they stand for may lie over each
-            // other in a band along it (`refine.rs`). The first walk shows the band's weight to
-            // the budget; below the regions taken out, the pair is descended where the band may
-            // weigh more than its share.
-            if let Some((beside_m, shared_m)) = regions
-                .beside
-                .filter(|&(beside_m, _)| beside_m < deviations_m)
-            {
+            // other in a band along it (`refine.rs`). Past a corner of the prism, where no wall
+            // separates them, they may within their deviations and the lean of the obstacle
+            // surface's own prisms, as pieces that do not face each other may (above): a square
+            // band at the corner. So is a tool piece over the prism but out of the slab, beside
+            // it by nothing (`beside_prism_m`): its surfaces lie within the deviations of it,
+            // which may reach further than the spread's half-width (a statistic) lets its
+            // region's weight say. The first walk shows the band's weight to the budget; below
+            // the regions taken out, the pair is descended where the band may weigh more than
+            // its share.
+            let band = match regions.beside {
+                Some((beside_m, shared_m)) => {
+                    (beside_m < deviations_m).then_some((deviations_m - beside_m, shared_m))
+                }
+                None if facing && regions.region.is_none() && regions.nearest_m.is_infinite() => {
+                    let reach_m = deviations_m + walk.spread_height_m * mb.spread_tan;
+                    let beside_m =
+                        beside_prism_m(&buf[..len], pb, &b.normal, delta + offset.reach_m());
+                    (beside_m < reach_m).then_some((reach_m - beside_m, 0.0))
+                }
+                None => None,
+            };
+            if let Some((width_m, shared_m)) = band {
                 let g_m = gap_weight_m(-gap, delta);
-                let band_m3 = band_weight_m3(deviations_m - beside_m, shared_m, g_m);
+                let band_m3 = band_weight_m3(width_m, shared_m, g_m);
                 if pass == Pass::Record {
                     written.push(Written::band((ia, ib), band_m3));
                 } else if band_m3 > walk.weight_error_per_weight * ma.area_m2.min(mb.area_m2) * g_m

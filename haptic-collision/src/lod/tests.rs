@@ -1665,6 +1665,52 @@ fn a_first_touch_pushes_as_the_surfaces_do() {
     }
 }
 
+/// Facing coarse pieces with no region whose tool piece lies past a corner of the obstacle
+/// piece's prism (no single wall separates them) may still have surfaces over each other, within
+/// their deviations and the lean of the obstacle surface's own prisms, as pieces that do not face
+/// each other may: the repository's fork on Spot at 8.5 cm, `δ` = 3 % of the fork's diagonal
+/// (5.6 mm), four first touches of `cargo xtask bench collision --scene
+/// basemesh_fork.stl,spot.stl --delta-mm 5.625`. A flat piece of the fork lay 0.8 mm past the
+/// corner of a cow piece whose deviation is 0.7 mm and whose triangles lean by up to 16°; the
+/// pair was dropped, and LOD at 2.5 % wrote a hundredth of the reference's weight (an error of
+/// 0.99 at each). Now the pair is a band at the corner, the budget takes it, and the force is
+/// the reference's.
+#[test]
+fn facing_pieces_past_a_corner_of_the_prism_are_a_band() {
+    let tool = asset_tool("basemesh_fork.stl", 1.0);
+    let delta = 5.625e-3;
+    let (x, y, z) = (
+        5.419_917_557_906_644e-3,
+        1.144_981_229_506_119_4e-2,
+        5.911_916_441_753_379e-2,
+    );
+    let (x2, y2, z2) = (
+        5.726_915_341_271_644e-3,
+        1.084_146_850_235_416e-2,
+        5.912_748_876_203_987e-2,
+    );
+    let poses = [
+        (
+            [x, y, z],
+            [2.190_764_418_061_726e-3, 1.204_382_930_687_820_8e-3],
+        ),
+        (
+            [x, y, z],
+            [-2.190_764_418_061_725_4e-3, 1.204_382_930_687_821_4e-3],
+        ),
+        (
+            [x2, y2, z2],
+            [2.151_852_825_994_864e-3, 1.272_602_213_747_655_5e-3],
+        ),
+        (
+            [x2, y2, z2],
+            [-2.151_852_825_994_864e-3, 1.272_602_213_747_656e-3],
+        ),
+    ];
+    let errors = errors_at_bench_poses(&tool, asset("spot_keenan_5856.stl", 0.05), delta, &poses);
+    assert!(errors.iter().all(|&e| e <= 0.05), "{errors:?}");
+}
+
 /// Where the coarse pieces' spread reaches within `δ` and the surfaces do not, the regions the
 /// budget took out push nothing once refined, and the regions left must be held against that
 /// force, not the one the budget was taken from (`refine::refine_regions`). The Newell teaspoon
