@@ -582,9 +582,18 @@ pub(crate) fn walk_from_stack(
                 }
                 None if facing && regions.region.is_none() && regions.nearest_m.is_infinite() => {
                     let reach_m = deviations_m + walk.spread_height_m * mb.spread_tan;
-                    let beside_m =
-                        beside_prism_m(&buf[..len], pb, &b.normal, delta + offset.reach_m());
-                    (beside_m < reach_m).then_some((reach_m - beside_m, 0.0))
+                    // Below the regions taken out, a band no wider than that reach is within
+                    // its share whatever how far beside the prism the tool piece lies.
+                    let within_share = pass == Pass::PairByPair
+                        && reach_m * reach_m
+                            <= walk.weight_error_per_weight * ma.area_m2.min(mb.area_m2);
+                    if within_share {
+                        None
+                    } else {
+                        let beside_m =
+                            beside_prism_m(&buf[..len], pb, &b.normal, delta + offset.reach_m());
+                        (beside_m < reach_m).then_some((reach_m - beside_m, 0.0))
+                    }
                 }
                 None => None,
             };
