@@ -601,7 +601,7 @@ pub(crate) fn walk_from_stack(
                 let g_m = gap_weight_m(-gap, delta);
                 let band_m3 = band_weight_m3(width_m, shared_m, g_m);
                 if pass == Pass::Record {
-                    written.push(Written::band((ia, ib), band_m3));
+                    written.push(Written::band((ia, ib), band_m3, g_m));
                 } else if band_m3 > walk.weight_error_per_weight * ma.area_m2.min(mb.area_m2) * g_m
                 {
                     descend(ia, a, ib, b, stack);

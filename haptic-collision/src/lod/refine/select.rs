@@ -13,15 +13,38 @@ fn error_of(directions: Real, weights_squared: Real) -> Real {
     directions.max(0.0) + weights_squared.max(0.0).sqrt()
 }
 
+/// Which moment of the regions' forces a budget holds (`super`, module docs): the penalty's,
+/// `Σ w n` over the stiffness, or the clustering's, `Σ w g n`, in which each region's force and
+/// bounds weigh its `g`-weighted mean gap times as much.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub(crate) enum Moment {
+    /// `Σ w n`: the force the contacts push with.
+    Penalty,
+    /// `Σ w g n`: what the clustering's representatives push with (`haptic-cluster`).
+    Clustering,
+}
+
+impl Moment {
+    /// What an entry's force and bounds weigh in this moment, per unit of the penalty's.
+    #[inline]
+    pub(crate) fn scale(self, w: &Written) -> Real {
+        match self {
+            Self::Penalty => 1.0,
+            Self::Clustering => w.gap_m,
+        }
+    }
+}
+
 /// How many of `written` must be refined, moved to its front: every one marked `always`, then
 /// the fewest of the others, largest `bound + weight_bound` first, that leave the rest's error
-/// ([`error_of`]) at most `budget`. Entries with neither bound (triangle pairs, flat pieces) are
-/// taken only when marked. The ones taken are in no particular order.
+/// ([`error_of`]) at most `budget`, all in the `moment` held ([`Moment::scale`]). Entries with
+/// neither bound (triangle pairs, flat pieces) are taken only when marked. The ones taken are
+/// in no particular order.
 ///
 /// The fewest largest are found by partitioning about pivots, as a selection does, keeping the
 /// part that holds the answer: linear time expected, where sorting them took `k log k` (a
 /// jaws query takes a thousand of two thousand entries, in up to eight rounds).
-pub(crate) fn take_largest(written: &mut [Written], budget: Real) -> usize {
+pub(crate) fn take_largest(written: &mut [Written], budget: Real, moment: Moment) -> usize {
     // The marked ones first (a partition, in place).
     let mut marked = 0;
     for i in 0..written.len() {
@@ -31,7 +54,7 @@ pub(crate) fn take_largest(written: &mut [Written], budget: Real) -> usize {
         }
     }
     let rest = &mut written[marked..];
-    let (total_b, total_e2) = sums(rest);
+    let (total_b, total_e2) = sums(rest, moment);
     let left_within = |(b, e2): (Real, Real)| error_of(total_b - b, total_e2 - e2) <= budget;
     // (A NaN, from bounds that are not finite, refines nothing more.)
     let error = error_of(total_b, total_e2);
@@ -42,7 +65,7 @@ pub(crate) fn take_largest(written: &mut [Written], budget: Real) -> usize {
     let mut hi = rest.len();
     let mut i = 0;
     while i < hi {
-        if key(&rest[i]) > 0.0 {
+        if key(&rest[i], moment) > 0.0 {
             i += 1;
         } else {
             hi -= 1;
@@ -54,15 +77,20 @@ pub(crate) fn take_largest(written: &mut [Written], budget: Real) -> usize {
     let (mut lo, mut out) = (0, (0.0, 0.0));
     while lo < hi {
         let part = &mut rest[lo..hi];
-        let pivot = median_of_three(&part[0], &part[part.len() / 2], &part[part.len() - 1]);
+        let pivot = median_of_three(
+            &part[0],
+            &part[part.len() / 2],
+            &part[part.len() - 1],
+            moment,
+        );
         // The ones before the pivot, then the pivot.
-        let before = partition_about(part, &pivot);
-        let with_before = add(out, sums(&part[..before]));
+        let before = partition_about(part, &pivot, moment);
+        let with_before = add(out, sums(&part[..before], moment));
         if left_within(with_before) {
             hi = lo + before;
             continue;
         }
-        let with_pivot = add(with_before, sums(std::slice::from_ref(&pivot)));
+        let with_pivot = add(with_before, sums(std::slice::from_ref(&pivot), moment));
         if left_within(with_pivot) {
             return marked + lo + before + 1;
         }
@@ -75,23 +103,26 @@ pub(crate) fn take_largest(written: &mut [Written], budget: Real) -> usize {
 /// The order entries are taken in: the larger `bound + weight_bound` first, then the larger
 /// weight bound, then the smaller index (a total order, so that which of equal bounds are taken
 /// does not depend on where they stood).
-fn larger_first(x: &Written, y: &Written) -> std::cmp::Ordering {
-    key(y)
-        .total_cmp(&key(x))
-        .then(y.weight_bound.total_cmp(&x.weight_bound))
+fn larger_first(x: &Written, y: &Written, moment: Moment) -> std::cmp::Ordering {
+    key(y, moment)
+        .total_cmp(&key(x, moment))
+        .then((y.weight_bound * moment.scale(y)).total_cmp(&(x.weight_bound * moment.scale(x))))
         .then(x.index.cmp(&y.index))
         .then(x.pair.cmp(&y.pair))
 }
 
-/// What an entry is taken by: its two bounds added.
-fn key(w: &Written) -> Real {
-    w.bound + w.weight_bound
+/// What an entry is taken by: its two bounds added, in `moment`.
+fn key(w: &Written, moment: Moment) -> Real {
+    (w.bound + w.weight_bound) * moment.scale(w)
 }
 
-/// The sums [`error_of`] reads of `ws`: their direction bounds, and their weight bounds squared.
-fn sums(ws: &[Written]) -> (Real, Real) {
+/// The sums [`error_of`] reads of `ws` in `moment`: their direction bounds, and their weight
+/// bounds squared.
+fn sums(ws: &[Written], moment: Moment) -> (Real, Real) {
     ws.iter().fold((0.0, 0.0), |(b, e2), w| {
-        (b + w.bound, e2 + w.weight_bound * w.weight_bound)
+        let k = moment.scale(w);
+        let e = w.weight_bound * k;
+        (b + w.bound * k, e2 + e * e)
     })
 }
 
@@ -101,17 +132,17 @@ fn add(a: (Real, Real), b: (Real, Real)) -> (Real, Real) {
 }
 
 /// The middle of three entries in [`larger_first`] order.
-fn median_of_three(a: &Written, b: &Written, c: &Written) -> Written {
+fn median_of_three(a: &Written, b: &Written, c: &Written, moment: Moment) -> Written {
     use std::cmp::Ordering::Greater;
-    let (a, b) = if larger_first(a, b) == Greater {
+    let (a, b) = if larger_first(a, b, moment) == Greater {
         (b, a)
     } else {
         (a, b)
     };
     // `a` before `b`: the middle is `b` unless `c` comes before it.
-    if larger_first(b, c) != Greater {
+    if larger_first(b, c, moment) != Greater {
         *b
-    } else if larger_first(a, c) == Greater {
+    } else if larger_first(a, c, moment) == Greater {
         *a
     } else {
         *c
@@ -120,17 +151,18 @@ fn median_of_three(a: &Written, b: &Written, c: &Written) -> Written {
 
 /// Reorders `part` (which holds `pivot`) into the entries before `pivot` in [`larger_first`]
 /// order, then `pivot`, then the rest; returns how many come before it.
-fn partition_about(part: &mut [Written], pivot: &Written) -> usize {
+fn partition_about(part: &mut [Written], pivot: &Written, moment: Moment) -> usize {
     use std::cmp::Ordering::{Equal, Less};
     let mut before = 0;
     for i in 0..part.len() {
-        if larger_first(&part[i], pivot) == Less {
+        if larger_first(&part[i], pivot, moment) == Less {
             part.swap(before, i);
             before += 1;
         }
     }
     // The pivot itself (the only entry equal to it) next.
-    if let Some(at) = (before..part.len()).find(|&i| larger_first(&part[i], pivot) == Equal) {
+    if let Some(at) = (before..part.len()).find(|&i| larger_first(&part[i], pivot, moment) == Equal)
+    {
         part.swap(before, at);
     }
     before
@@ -148,6 +180,7 @@ pub(super) fn written_with_bounds(bounds: &[Real]) -> Vec<Written> {
             bound: b,
             weight_bound: 0.0,
             force: haptic_core::Vec3::zeros(),
+            gap_m: 1.0,
             always: false,
         })
         .collect()
@@ -166,37 +199,37 @@ mod tests {
         for x in &mut w {
             x.weight_bound = 1.0;
         }
-        assert_eq!(take_largest(&mut w, 2.0), 0);
-        assert_eq!(take_largest(&mut w, 1.9), 1);
+        assert_eq!(take_largest(&mut w, 2.0, Moment::Penalty), 0);
+        assert_eq!(take_largest(&mut w, 1.9, Moment::Penalty), 1);
         // Taking one leaves √3 ≤ 1.8.
         let mut w = written_with_bounds(&[0.0, 0.0, 0.0, 0.0, 1.0]);
         for x in &mut w[..4] {
             x.weight_bound = 1.0;
         }
-        assert_eq!(take_largest(&mut w, 3.0), 0);
+        assert_eq!(take_largest(&mut w, 3.0, Moment::Penalty), 0);
         // 2.8: one taken leaves 1 + √3 or 2, within it (every key is 1).
-        let k = take_largest(&mut w, 2.8);
+        let k = take_largest(&mut w, 2.8, Moment::Penalty);
         assert_eq!(k, 1);
-        let (b, e2) = sums(&w[k..]);
+        let (b, e2) = sums(&w[k..], Moment::Penalty);
         assert!(error_of(b, e2) <= 2.8, "{b} {e2}");
     }
 
     /// The fewest largest by a full sort, as `take_largest` once found them: the count taken.
-    fn taken_by_sorting(written: &[Written], budget: Real) -> usize {
+    fn taken_by_sorting(written: &[Written], budget: Real, moment: Moment) -> usize {
         let marked = written.iter().filter(|w| w.always).count();
         let mut rest: Vec<Written> = written.iter().filter(|w| !w.always).copied().collect();
-        let total = sums(&rest);
+        let total = sums(&rest, moment);
         let within = |(b, e2): (Real, Real)| error_of(total.0 - b, total.1 - e2) <= budget;
         if within((0.0, 0.0)) {
             return marked;
         }
-        rest.sort_by(larger_first);
+        rest.sort_by(|x, y| larger_first(x, y, moment));
         let (mut taken, mut out) = (0, (0.0, 0.0));
         for w in &rest {
-            if within(out) || key(w) <= 0.0 {
+            if within(out) || key(w, moment) <= 0.0 {
                 break;
             }
-            out = (out.0 + w.bound, out.1 + w.weight_bound * w.weight_bound);
+            out = add(out, sums(std::slice::from_ref(w), moment));
             taken += 1;
         }
         marked + taken
@@ -207,33 +240,42 @@ mod tests {
         /// marked ones first, and leaves the rest within the budget where the bounds allow.
         #[test]
         fn the_selection_takes_what_a_full_sort_takes(
-            entries in proptest::collection::vec((0u32..6, 0u32..6, proptest::bool::weighted(0.05)), 0..300),
+            entries in proptest::collection::vec(
+                (0u32..6, 0u32..6, proptest::bool::weighted(0.05), 0u32..4),
+                0..300,
+            ),
             share in 0.0f64..1.2,
+            clustering in proptest::bool::ANY,
         ) {
             // Few distinct values, so that ties are many; a fifth with neither bound.
+            let moment = if clustering { Moment::Clustering } else { Moment::Penalty };
             let mut w: Vec<Written> = entries
                 .iter()
                 .enumerate()
-                .map(|(i, &(b, e, always))| Written {
+                .map(|(i, &(b, e, always, gap))| Written {
                     index: i as u32,
                     pair: (i as u32, 0),
                     bound: 0.25 * Real::from(b),
                     weight_bound: 0.5 * Real::from(e),
                     force: Vec3::zeros(),
+                    gap_m: 0.5 * Real::from(gap),
                     always,
                 })
                 .collect();
-            let total = sums(&w);
+            let total = sums(&w, moment);
             let budget = share * error_of(total.0, total.1);
-            let expected = taken_by_sorting(&w, budget);
-            let k = take_largest(&mut w, budget);
+            let expected = taken_by_sorting(&w, budget, moment);
+            let k = take_largest(&mut w, budget, moment);
             proptest::prop_assert_eq!(k, expected);
             let marked = w.iter().filter(|w| w.always).count();
             proptest::prop_assert!(w[..marked].iter().all(|w| w.always));
-            let least_taken = w[marked..k].iter().map(key).fold(Real::INFINITY, Real::min);
-            let most_left = w[k..].iter().map(key).fold(0.0, Real::max);
+            let least_taken = w[marked..k]
+                .iter()
+                .map(|w| key(w, moment))
+                .fold(Real::INFINITY, Real::min);
+            let most_left = w[k..].iter().map(|w| key(w, moment)).fold(0.0, Real::max);
             proptest::prop_assert!(k == marked || least_taken >= most_left);
-            proptest::prop_assert!(w[marked..k].iter().all(|w| key(w) > 0.0));
+            proptest::prop_assert!(w[marked..k].iter().all(|w| key(w, moment) > 0.0));
         }
     }
 
@@ -243,7 +285,7 @@ mod tests {
         let mut bounds = vec![0.01; 40];
         bounds.extend([3.0, 0.5, 2.0]);
         let mut w = written_with_bounds(&bounds);
-        let k = take_largest(&mut w, 1.0);
+        let k = take_largest(&mut w, 1.0, Moment::Penalty);
         // Total 5.9: taking 3.0 leaves 2.9, then 2.0 leaves 0.9 ≤ 1.0.
         assert_eq!(k, 2);
         let mut taken: Vec<Real> = w[..k].iter().map(|w| w.bound).collect();
@@ -258,13 +300,13 @@ mod tests {
         let mut w = written_with_bounds(&[0.0, 0.2, 0.0, 5.0]);
         w[2].always = true;
         // Within budget without it: only the marked one.
-        let k = take_largest(&mut w, 10.0);
+        let k = take_largest(&mut w, 10.0, Moment::Penalty);
         assert_eq!(k, 1);
         assert_eq!(w[0].index, 2);
         // Over budget: the marked one, then the largest.
         let mut w = written_with_bounds(&[0.0, 0.2, 0.0, 5.0]);
         w[0].always = true;
-        let k = take_largest(&mut w, 1.0);
+        let k = take_largest(&mut w, 1.0, Moment::Penalty);
         assert_eq!(k, 2);
         assert_eq!((w[0].index, w[1].index), (0, 3));
     }
@@ -272,10 +314,10 @@ mod tests {
     #[test]
     fn nothing_is_taken_within_budget_and_zero_bounds_never() {
         let mut w = written_with_bounds(&[0.2, 0.3]);
-        assert_eq!(take_largest(&mut w, 0.5), 0);
+        assert_eq!(take_largest(&mut w, 0.5, Moment::Penalty), 0);
         // A budget of zero takes every positive bound and no zero one.
         let mut w = written_with_bounds(&[0.0, 0.4, 0.0, 0.1]);
-        assert_eq!(take_largest(&mut w, 0.0), 2);
+        assert_eq!(take_largest(&mut w, 0.0, Moment::Penalty), 2);
         assert!(w[..2].iter().all(|w| w.bound > 0.0));
         // Many entries: the doubling partition finds the same answer as a full sort.
         let bounds: Vec<Real> = (0..1000)
@@ -283,7 +325,7 @@ mod tests {
             .collect();
         let mut w = written_with_bounds(&bounds);
         let total: Real = bounds.iter().sum();
-        let k = take_largest(&mut w, 0.5 * total);
+        let k = take_largest(&mut w, 0.5 * total, Moment::Penalty);
         let mut sorted = bounds.clone();
         sorted.sort_by(|a, b| b.total_cmp(a));
         let mut left = 0.5 * total;
@@ -296,5 +338,25 @@ mod tests {
             })
             .count();
         assert_eq!(k, expected);
+    }
+
+    /// In the clustering's moment each entry's bounds weigh its gap times as much: of two equal
+    /// bounds, the one at three times the gap is taken first, and alone brings the rest within
+    /// a budget the penalty's moment would meet by taking either.
+    #[test]
+    fn the_clustering_moment_weighs_each_bound_by_its_gap() {
+        let mut w = written_with_bounds(&[1.0, 1.0]);
+        w[1].gap_m = 3.0;
+        // Penalty: 2 against 1.5, one taken, the tie broken by index.
+        assert_eq!(take_largest(&mut w, 1.5, Moment::Penalty), 1);
+        assert_eq!(w[0].index, 0);
+        // Clustering: 1 + 3 against 2.5; the one at gap 3 taken, leaving 1.
+        let mut w = written_with_bounds(&[1.0, 1.0]);
+        w[1].gap_m = 3.0;
+        assert_eq!(take_largest(&mut w, 2.5, Moment::Clustering), 1);
+        assert_eq!(w[0].index, 1);
+        // Within 4, none; within 0.5, both.
+        assert_eq!(take_largest(&mut w, 4.0, Moment::Clustering), 0);
+        assert_eq!(take_largest(&mut w, 0.5, Moment::Clustering), 2);
     }
 }
