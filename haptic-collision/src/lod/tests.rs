@@ -1802,6 +1802,18 @@ fn errors_at_bench_poses(
     delta_m: Real,
     poses: &[([Real; 3], [Real; 2])],
 ) -> Vec<Real> {
+    moment_errors_at_bench_poses(tool, obstacle, delta_m, poses, net_force)
+}
+
+/// [`errors_at_bench_poses`] in the moment `measure` gives of a query's contacts (its
+/// arguments: the back-end, the pose, `δ` and the threshold).
+fn moment_errors_at_bench_poses(
+    tool: &TriMesh,
+    obstacle: TriMesh,
+    delta_m: Real,
+    poses: &[([Real; 3], [Real; 2])],
+    measure: fn(&mut LodBackend, &Pose, Real, Real) -> Vec3,
+) -> Vec<Real> {
     let (mut reference, mut budget) = all_pairs_and_budgeted(tool, obstacle);
     let w = 9.999_968_750_016_276e-1;
     poses
@@ -1812,8 +1824,8 @@ fn errors_at_bench_poses(
                 nalgebra::Quaternion::new(w, q[0], q[1], 0.0),
             )
             .unwrap();
-            let f0 = net_force(&mut reference, &pose, delta_m, 0.0);
-            let f = net_force(&mut budget, &pose, delta_m, 0.025);
+            let f0 = measure(&mut reference, &pose, delta_m, 0.0);
+            let f = measure(&mut budget, &pose, delta_m, 0.025);
             assert!(f0.norm() > 0.0);
             (f - f0).norm() / f0.norm()
         })
@@ -2050,9 +2062,7 @@ fn the_clustering_moment_is_held_where_deep_contacts_cancel() {
         (0.031, 5.109_927_617_709_579, 5.735_012_432_197_602),
     ];
     let terrain = super::testmesh::wavy_slab(0.1, 60, 0.004, &waves, 0.01);
-    let (mut reference, mut budget) = all_pairs_and_budgeted(&tool, terrain);
     let delta = 10.311_931_122_638_889e-3;
-    let w = 9.999_968_750_016_276e-1;
     let poses = [
         (
             [
@@ -2079,19 +2089,7 @@ fn the_clustering_moment_is_held_where_deep_contacts_cancel() {
             [8.468_439_184_835_038e-4, 2.352_199_472_175_993_3e-3],
         ),
     ];
-    let errors: Vec<Real> = poses
-        .iter()
-        .map(|(p, q)| {
-            let pose = Pose::new(
-                Vec3::from(*p),
-                nalgebra::Quaternion::new(w, q[0], q[1], 0.0),
-            )
-            .unwrap();
-            let f0 = clustering_moment(&mut reference, &pose, delta, 0.0);
-            let f = clustering_moment(&mut budget, &pose, delta, 0.025);
-            (f - f0).norm() / f0.norm()
-        })
-        .collect();
+    let errors = moment_errors_at_bench_poses(&tool, terrain, delta, &poses, clustering_moment);
     assert!(errors.iter().all(|&e| e <= 0.12), "{errors:?}");
 }
 
