@@ -41,8 +41,8 @@
 //! surfaces' heights about its pieces and the share `kᵢ` of them the surfaces cover: the errors
 //! of its force's direction added, of its weight in quadrature), against the
 //! threshold's share of the net force, `τ |Σ wᵢ nᵢ|`; where it is larger, the regions with the
-//! largest bounds are refined under the coherence condition until the rest is within it
-//! (`refine.rs`). The refinement goes where the force is, and where opposed contacts cancel the
+//! largest bounds are refined under the coherence condition until the rest is within it, and
+//! the same in the moment the clustering reads, `τ |Σ wᵢ gᵢ nᵢ|` (`refine.rs`). The refinement goes where the force is, and where opposed contacts cancel the
 //! budget shrinks with their resultant. On the jaws it refines a few dozen of about a thousand
 //! regions, where the coherence rule descends every incoherent one
 //! (`docs/experiments/lod-accuracy-and-speed-probes.md`, probe 24).
@@ -72,7 +72,8 @@ pub enum StoppingRule {
     /// pieces, and where they cover a share `k` of them) is largest
     /// are refined (the direction bounds added, the weights' in quadrature)
     /// under the coherence condition until the bounds left sum to at most the threshold's share
-    /// of the net force (`ε / tool radius` of `|Σ w n|`, per obstacle). A region whose pieces lie
+    /// of the net force (`ε / tool radius` of `|Σ w n|`, per obstacle), and of the clustering's
+    /// `|Σ w g n|`, each bound weighed by its region's mean gap `g`. A region whose pieces lie
     /// beyond `δ` of each other (within reach only through the surfaces they stand for) and are
     /// less coherent than the condition asks is refined whatever the budget: its weight, next to
     /// nothing, says nothing of what those surfaces push; nor does the weight of coarse pieces
