@@ -474,8 +474,8 @@ pub(crate) fn refine_regions(
         // where the surfaces do not, at a first touch), the regions left must be held against
         // what is left of it, in either moment.
         let contacts = &out.as_slice()[start..];
-        let left = net_force_m3(contacts, walk.delta_m, Moment::Penalty);
-        let left_clustering = net_force_m3(contacts, walk.delta_m, Moment::Clustering);
+        let left = net_force(contacts, walk.delta_m, Moment::Penalty);
+        let left_clustering = net_force(contacts, walk.delta_m, Moment::Clustering);
         if left.is_nan()
             || left_clustering.is_nan()
             || (left >= net && left_clustering >= net_clustering)
@@ -490,16 +490,12 @@ pub(crate) fn refine_regions(
 
 /// The norm of the net force over the stiffness of `contacts` in `moment`: `|Σ a g n|` (m³,
 /// the penalty's) or `|Σ a g² n|` (m⁴, the clustering's).
-fn net_force_m3(contacts: &[Contact], delta_m: Real, moment: Moment) -> Real {
+fn net_force(contacts: &[Contact], delta_m: Real, moment: Moment) -> Real {
     contacts
         .iter()
         .fold(Vec3::zeros(), |sum, c| {
             let g = c.gap_weight_m(delta_m);
-            let k = match moment {
-                Moment::Penalty => 1.0,
-                Moment::Clustering => g,
-            };
-            sum + c.n * (c.area_m2 * g * k)
+            sum + c.n * (c.area_m2 * g * moment.weight(g))
         })
         .norm()
 }

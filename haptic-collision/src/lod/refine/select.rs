@@ -25,13 +25,20 @@ pub(crate) enum Moment {
 }
 
 impl Moment {
+    /// What a force at the mean gap `gap_m` (m) weighs in this moment, per unit of the
+    /// penalty's: 1, or the gap.
+    #[inline]
+    pub(crate) fn weight(self, gap_m: Real) -> Real {
+        match self {
+            Self::Penalty => 1.0,
+            Self::Clustering => gap_m,
+        }
+    }
+
     /// What an entry's force and bounds weigh in this moment, per unit of the penalty's.
     #[inline]
     pub(crate) fn scale(self, w: &Written) -> Real {
-        match self {
-            Self::Penalty => 1.0,
-            Self::Clustering => w.gap_m,
-        }
+        self.weight(w.gap_m)
     }
 }
 
